@@ -1,0 +1,159 @@
+// Every tunable of the pipeline, grouped per stage. ROS-free.
+//
+// This file is the single source of each default. config/default.yaml mirrors it (a test
+// checks that they agree), the ROS shell reads the same names from the private node handle
+// (group/name, e.g. ~preprocess/outlier_k) and the README's parameter table lists them.
+//
+// Each group has visit(f), calling f(name, value&, doc) for every field, so that loaders,
+// writers and documentation all iterate over one list, and validate(), which throws
+// std::invalid_argument with a message naming the parameter and the accepted range.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace novelty_detection {
+
+/// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
+struct PreprocessParams {
+  int max_points = 2000000;        ///< sweeps larger than this are refused
+  bool outlier_removal = true;     ///< statistical outlier removal (Rusu et al. 2008)
+  int outlier_k = 8;               ///< neighbours for the mean distance
+  double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
+  bool ground_removal = true;      ///< RANSAC ground plane removal
+  double ground_distance_m = 0.03; ///< inlier distance to the plane
+  double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
+  int ground_max_iterations = 200;     ///< RANSAC iterations
+
+  template <class F>
+  void visit(F&& f) {
+    f("max_points", max_points, "sweeps with more points are refused");
+    f("outlier_removal", outlier_removal, "enable statistical outlier removal");
+    f("outlier_k", outlier_k, "neighbours used for the mean neighbour distance");
+    f("outlier_std_mul", outlier_std_mul,
+      "a point is an outlier when its mean distance exceeds mu + outlier_std_mul * sigma");
+    f("ground_removal", ground_removal, "enable RANSAC ground plane removal");
+    f("ground_distance_m", ground_distance_m, "max distance of a ground inlier to the plane [m]");
+    f("ground_max_angle_deg", ground_max_angle_deg,
+      "max angle between the ground normal and the fixed frame's +z [deg]");
+    f("ground_max_iterations", ground_max_iterations, "RANSAC iterations for the ground plane");
+  }
+  void validate() const;
+};
+
+/// Multi-scale sampling (Pauly et al. 2002 hierarchical clustering; a scale is a tree cut).
+struct MultiScaleParams {
+  int n_max = 32;           ///< split clusters larger than this
+  double sigma_max = 0.02;  ///< split clusters whose surface variation exceeds this
+
+  template <class F>
+  void visit(F&& f) {
+    f("n_max", n_max, "clusters with more points are split (coarse scale)");
+    f("sigma_max", sigma_max, "clusters with a larger surface variation are split");
+  }
+  void validate() const;
+};
+
+/// Gaussian mixture fitting by EM.
+struct GmmParams {
+  int max_components = 64;        ///< cap on the number of Gaussians
+  int max_iterations = 50;        ///< EM iteration cap
+  double tolerance = 1e-4;        ///< stop when the mean log-likelihood gains less
+  double min_variance_m2 = 1e-4;  ///< added to covariance diagonals (planar clusters)
+  int seed = 42;                  ///< RNG seed (determinism)
+
+  template <class F>
+  void visit(F&& f) {
+    f("max_components", max_components, "maximum number of Gaussians per mixture");
+    f("max_iterations", max_iterations, "EM iteration cap");
+    f("tolerance", tolerance, "EM stops when the mean log-likelihood gains less than this");
+    f("min_variance_m2", min_variance_m2, "covariance regularisation added to the diagonal [m^2]");
+    f("seed", seed, "random seed; results are deterministic for a seed");
+  }
+  void validate() const;
+};
+
+/// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1).
+struct SelectionParams {
+  std::string ground_distance = "wasserstein";  ///< "wasserstein" or "euclidean"
+  double min_relative_decrease = 0.05;  ///< stop when a removal lowers EMD by less (fraction)
+  double u_th = 0.0;                    ///< stop when EMD falls below this [m]
+  int max_novel_gaussians = 32;         ///< cap on selected Gaussians
+
+  template <class F>
+  void visit(F&& f) {
+    f("ground_distance", ground_distance,
+      "ground distance between Gaussians: wasserstein (2-Wasserstein) or euclidean (means)");
+    f("min_relative_decrease", min_relative_decrease,
+      "greedy selection stops when the best removal lowers the EMD by less than this fraction");
+    f("u_th", u_th, "greedy selection stops when the EMD falls below this [m]");
+    f("max_novel_gaussians", max_novel_gaussians, "maximum number of novel Gaussians");
+  }
+  void validate() const;
+};
+
+/// Labelling every input point from the novel Gaussians (ChoosePtfromGaussian).
+struct SegmentationParams {
+  double posterior_threshold = 0.5;  ///< min posterior of the novel Gaussians
+  int min_segment_points = 20;       ///< smaller segments are dropped
+
+  template <class F>
+  void visit(F&& f) {
+    f("posterior_threshold", posterior_threshold,
+      "a point is novel when the novel Gaussians' posterior exceeds this");
+    f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
+  }
+  void validate() const;
+};
+
+/// Superquadric recovery: LM fit (eq. 3), multi-scale refinement, split and merge.
+struct SuperquadricParams {
+  bool enabled = true;          ///< fit superquadrics to segments
+  double epsilon_min = 0.1;     ///< lower bound of e1, e2
+  double epsilon_max = 1.9;     ///< upper bound of e1, e2
+  int max_iterations = 50;      ///< LM iteration cap per fit
+  int split_min_points = 40;    ///< a part is not split into halves smaller than this
+  int max_parts = 8;            ///< cap on superquadrics per segment
+
+  template <class F>
+  void visit(F&& f) {
+    f("enabled", enabled, "fit superquadrics to the novelty segments");
+    f("epsilon_min", epsilon_min, "lower bound of the shape exponents e1, e2");
+    f("epsilon_max", epsilon_max, "upper bound of the shape exponents e1, e2");
+    f("max_iterations", max_iterations, "Levenberg-Marquardt iteration cap per fit");
+    f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
+    f("max_parts", max_parts, "maximum number of superquadrics per segment");
+  }
+  void validate() const;
+};
+
+/// All parameters. Group names are the YAML sections and ROS parameter namespaces.
+struct Params {
+  PreprocessParams preprocess;
+  MultiScaleParams multiscale;
+  GmmParams gmm;
+  SelectionParams selection;
+  SegmentationParams segmentation;
+  SuperquadricParams superquadric;
+
+  /// Calls f(group, name, value&, doc) for every parameter.
+  template <class F>
+  void visit(F&& f) {
+    auto in = [&f](const char* group) {
+      return [&f, group](const char* name, auto& value, const char* doc) {
+        f(group, name, value, doc);
+      };
+    };
+    preprocess.visit(in("preprocess"));
+    multiscale.visit(in("multiscale"));
+    gmm.visit(in("gmm"));
+    selection.visit(in("selection"));
+    segmentation.visit(in("segmentation"));
+    superquadric.visit(in("superquadric"));
+  }
+
+  /// Throws std::invalid_argument naming the first invalid parameter.
+  void validate() const;
+};
+
+}  // namespace novelty_detection

@@ -1,0 +1,43 @@
+// The whole detection chain behind one class. ROS-free.
+//
+//   Pipeline pipeline(params);            // validates params (throws std::invalid_argument)
+//   pipeline.setReference(map_cloud);     // pre-processing + model of the map, computed once
+//   Result r = pipeline.detect(sweep);    // labels every input point, segments, superquadrics
+#pragma once
+
+#include <memory>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+struct ReferenceModel;  // pre-processed reference points, its mixture, search structures
+
+class Pipeline {
+ public:
+  explicit Pipeline(const Params& params);
+  ~Pipeline();
+  Pipeline(Pipeline&&) noexcept;
+  Pipeline& operator=(Pipeline&&) noexcept;
+
+  const Params& params() const { return params_; }
+
+  /// Builds and caches the reference model. Non-finite points are ignored. Throws
+  /// std::invalid_argument when fewer than a handful of finite points remain.
+  void setReference(const Cloud& reference);
+  bool hasReference() const { return reference_ != nullptr; }
+  /// The reference cloud as given to setReference (for saving it).
+  const Cloud& referenceCloud() const;
+
+  /// Compares `current` with the reference. Every input point gets a label (NaNs: 0).
+  /// Throws std::logic_error without a reference, std::invalid_argument for a cloud
+  /// larger than preprocess/max_points. An empty or all-NaN cloud yields no novelty.
+  Result detect(const Cloud& current) const;
+
+ private:
+  Params params_;
+  std::shared_ptr<const ReferenceModel> reference_;
+};
+
+}  // namespace novelty_detection

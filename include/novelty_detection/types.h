@@ -1,0 +1,90 @@
+// Shared data types of the novelty_detection core. ROS-free.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace novelty_detection {
+
+using PointT = pcl::PointXYZ;
+using Cloud = pcl::PointCloud<PointT>;
+/// Indices into a cloud (PCL convention: int).
+using Indices = std::vector<int>;
+
+/// One component of a Gaussian mixture (metres, square metres).
+struct Gaussian {
+  double weight = 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();
+};
+
+/// A Gaussian mixture; weights sum to 1 when fitted.
+struct Gmm {
+  std::vector<Gaussian> components;
+  std::size_t size() const { return components.size(); }
+  bool empty() const { return components.empty(); }
+};
+
+/// A superellipsoid (the paper's 11 parameters Lambda, eq. 2) in the fixed frame.
+/// Orientation uses Z-Y-Z Euler angles (phi, theta, psi), as Jaklic et al.:
+/// R = Rz(phi) * Ry(theta) * Rz(psi); a point p_world maps to the canonical frame by
+/// p_sq = R^T (p_world - position).
+struct Superquadric {
+  Eigen::Vector3d a = Eigen::Vector3d::Constant(0.1);  ///< half sizes a1, a2, a3 [m]
+  double e1 = 1.0;                                     ///< shape exponent epsilon1 (z)
+  double e2 = 1.0;                                     ///< shape exponent epsilon2 (xy)
+  Eigen::Vector3d euler = Eigen::Vector3d::Zero();     ///< phi, theta, psi [rad], ZYZ
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< centre [m]
+
+  int segment = 0;        ///< novelty segment id this part belongs to
+  int points = 0;         ///< number of points it was fitted on
+  double residual = 0.0;  ///< mean of eq. 3's squared terms over its points
+  Indices indices;        ///< input-cloud indices it explains (may be empty)
+
+  Eigen::Matrix3d rotation() const;
+  Eigen::Quaterniond quaternion() const;
+};
+
+/// A connected set of novel points: one changed object.
+struct Segment {
+  int id = 0;                          ///< > 0, the label written for its points
+  Indices indices;                     ///< indices into the input (current) cloud
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bbox_max = Eigen::Vector3d::Zero();
+  double emd_contribution = 0.0;       ///< EMD decrease owed to its Gaussians
+  std::vector<int> gaussians;          ///< indices into Result::current_gmm
+};
+
+/// Wall time of one named stage, in milliseconds.
+struct StageTiming {
+  std::string stage;
+  double ms = 0.0;
+};
+
+/// Everything one detection produces.
+struct Result {
+  /// One label per input point, input order: 0 = not novel, k > 0 = segment id.
+  std::vector<int> labels;
+  std::vector<Segment> segments;
+  std::vector<Superquadric> superquadrics;
+
+  Gmm current_gmm;
+  std::vector<bool> novel_gaussian;  ///< per current_gmm component
+  double emd_before = 0.0;
+  double emd_after = 0.0;
+
+  /// Points surviving each stage, e.g. {"input", 30000}, {"finite", 29800}, ...
+  std::vector<std::pair<std::string, std::size_t>> point_counts;
+  std::vector<StageTiming> timings;
+
+  bool hasNovelty() const { return !segments.empty(); }
+};
+
+}  // namespace novelty_detection

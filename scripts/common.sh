@@ -1,0 +1,21 @@
+# Sourced by the other scripts: paths and the ROS environment for an out-of-tree catkin
+# workspace in .ws/ (git-ignored) at the repository root.
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+WS="${NOVELTY_WS:-$REPO/.ws}"
+# Debian's catkin needs the system python (a pyenv shim may come first in PATH).
+export PATH="/usr/bin:/bin:$PATH"
+export ROS_HOME="$WS/.ros_home"
+export ROS_LOG_DIR="$ROS_HOME/log"
+mkdir -p "$ROS_LOG_DIR"
+
+log() { printf '\033[1m[novelty_detection]\033[0m %s\n' "$*" >&2; }
+
+# Sources the devel space (its scripts read unset variables, so -u is lifted around it).
+source_devel() {
+  local had_u=0
+  case $- in *u*) had_u=1; set +u ;; esac
+  # shellcheck disable=SC1091
+  source "$WS/devel/setup.bash"
+  [ "$had_u" = 1 ] && set -u
+  return 0
+}

@@ -1,0 +1,77 @@
+#include "novelty_detection/params.h"
+
+#include <sstream>
+
+namespace novelty_detection {
+namespace {
+
+template <class T>
+void requireRange(const char* name, T value, T lo, T hi) {
+  if (!(value >= lo && value <= hi)) {
+    std::ostringstream msg;
+    msg << "parameter " << name << " = " << value << " is out of range [" << lo << ", " << hi
+        << "]";
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+}  // namespace
+
+void PreprocessParams::validate() const {
+  requireRange("preprocess/max_points", max_points, 1, 100000000);
+  requireRange("preprocess/outlier_k", outlier_k, 1, 1000);
+  requireRange("preprocess/outlier_std_mul", outlier_std_mul, 0.0, 100.0);
+  requireRange("preprocess/ground_distance_m", ground_distance_m, 1e-4, 1.0);
+  requireRange("preprocess/ground_max_angle_deg", ground_max_angle_deg, 0.0, 90.0);
+  requireRange("preprocess/ground_max_iterations", ground_max_iterations, 1, 100000);
+}
+
+void MultiScaleParams::validate() const {
+  requireRange("multiscale/n_max", n_max, 1, 1000000);
+  requireRange("multiscale/sigma_max", sigma_max, 0.0, 1.0 / 3.0);
+}
+
+void GmmParams::validate() const {
+  requireRange("gmm/max_components", max_components, 1, 4096);
+  requireRange("gmm/max_iterations", max_iterations, 1, 10000);
+  requireRange("gmm/tolerance", tolerance, 0.0, 1.0);
+  requireRange("gmm/min_variance_m2", min_variance_m2, 1e-12, 1.0);
+  requireRange("gmm/seed", seed, 0, 2147483647);
+}
+
+void SelectionParams::validate() const {
+  if (ground_distance != "wasserstein" && ground_distance != "euclidean") {
+    throw std::invalid_argument("parameter selection/ground_distance = '" + ground_distance +
+                                "' must be 'wasserstein' or 'euclidean'");
+  }
+  requireRange("selection/min_relative_decrease", min_relative_decrease, 0.0, 1.0);
+  requireRange("selection/u_th", u_th, 0.0, 1000.0);
+  requireRange("selection/max_novel_gaussians", max_novel_gaussians, 0, 4096);
+}
+
+void SegmentationParams::validate() const {
+  requireRange("segmentation/posterior_threshold", posterior_threshold, 0.0, 1.0);
+  requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
+}
+
+void SuperquadricParams::validate() const {
+  requireRange("superquadric/epsilon_min", epsilon_min, 0.01, 2.0);
+  requireRange("superquadric/epsilon_max", epsilon_max, 0.01, 4.0);
+  if (epsilon_min >= epsilon_max) {
+    throw std::invalid_argument("parameter superquadric/epsilon_min must be below epsilon_max");
+  }
+  requireRange("superquadric/max_iterations", max_iterations, 1, 10000);
+  requireRange("superquadric/split_min_points", split_min_points, 4, 100000000);
+  requireRange("superquadric/max_parts", max_parts, 1, 1024);
+}
+
+void Params::validate() const {
+  preprocess.validate();
+  multiscale.validate();
+  gmm.validate();
+  selection.validate();
+  segmentation.validate();
+  superquadric.validate();
+}
+
+}  // namespace novelty_detection

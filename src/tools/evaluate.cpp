@@ -1,0 +1,7 @@
+// evaluate: not implemented yet.
+#include <iostream>
+
+int main() {
+  std::cerr << "evaluate: not implemented yet\n";
+  return 1;
+}

@@ -1,0 +1,7 @@
+// simulate_scans: not implemented yet.
+#include <iostream>
+
+int main() {
+  std::cerr << "simulate_scans: not implemented yet\n";
+  return 1;
+}
