@@ -1,0 +1,52 @@
+// Multi-scale sampling: Pauly, Gross & Kobbelt (2002) hierarchical clustering, as the paper
+// uses it (Sec. IV-A). A cluster P is split through its centroid by the plane normal to the
+// eigenvector of the largest eigenvalue of its covariance. The binary tree is built once,
+// down to small leaves; a scale is a cut of it, cheap to take at any (n_max, sigma_max):
+// a node is a cluster of the cut when |P| <= n_max and sigma(P) <= sigma_max (or it is a
+// leaf), sigma = l0 / (l0 + l1 + l2) with l0 <= l1 <= l2 the covariance eigenvalues.
+#pragma once
+
+#include <vector>
+
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+class MultiScaleTree {
+ public:
+  struct Node {
+    int begin = 0, end = 0;           ///< range in order() of the node's points
+    int left = -1, right = -1;        ///< children, -1 for a leaf
+    int parent = -1;
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+    Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
+    float sigma = 0.f;                ///< surface variation
+    int size() const { return end - begin; }
+    bool isLeaf() const { return left < 0; }
+  };
+
+  /// One scale: a set of clusters covering every point of the tree exactly once.
+  struct Cut {
+    std::vector<int> nodes;               ///< tree node of each cluster
+    std::vector<Eigen::Vector3f> points;  ///< representative (centroid) of each cluster
+    std::vector<int> sizes;               ///< points per cluster
+    std::vector<int> cluster_of;          ///< per INPUT-cloud index: cluster number, -1 if absent
+  };
+
+  /// Builds the tree over cloud[indices] (all finite points when indices is empty).
+  void build(const Cloud& cloud, const Indices& indices = {});
+  Cut cut(int n_max, double sigma_max) const;
+
+  const std::vector<Node>& nodes() const { return nodes_; }
+  /// Input-cloud indices in tree order: node n owns order()[n.begin, n.end).
+  const Indices& order() const { return order_; }
+  Indices nodeIndices(int node) const;
+  std::size_t cloudSize() const { return cloud_size_; }
+
+ private:
+  std::vector<Node> nodes_;
+  Indices order_;
+  std::size_t cloud_size_ = 0;
+};
+
+}  // namespace novelty_detection
