@@ -1,0 +1,29 @@
+// Reading and writing point cloud files (PCD, PLY) with clear errors. ROS-free.
+#pragma once
+
+#include <string>
+
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+/// A cloud and the sensor pose stored with it (PCD VIEWPOINT; identity when absent).
+struct CloudFile {
+  Cloud cloud;
+  Eigen::Isometry3d T_frame_sensor = Eigen::Isometry3d::Identity();
+};
+
+/// Loads a .pcd or .ply file with at least float x, y, z fields (other fields ignored,
+/// NaN points kept so indices match the file). Throws std::runtime_error with a one-line
+/// message naming the file and the problem (missing, unreadable, truncated, no x/y/z,
+/// unknown extension).
+CloudFile loadCloudFile(const std::string& path);
+Cloud loadCloud(const std::string& path);
+
+/// Writes a binary PCD atomically: to a temporary file beside `path`, then rename(), so a
+/// failed save leaves a previous file intact. The sensor pose goes to VIEWPOINT.
+/// Throws std::runtime_error on failure.
+void saveCloudAtomic(const std::string& path, const Cloud& cloud,
+                     const Eigen::Isometry3d& T_frame_sensor = Eigen::Isometry3d::Identity());
+
+}  // namespace novelty_detection

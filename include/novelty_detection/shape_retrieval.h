@@ -1,0 +1,28 @@
+// Shape retrieval (paper Sec. V): superquadrics for one novelty segment. ROS-free.
+#pragma once
+
+#include <vector>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+using Points3d = std::vector<Eigen::Vector3d>;
+
+class ShapeRetrieval {
+ public:
+  explicit ShapeRetrieval(const SuperquadricParams& params);
+
+  /// Superquadrics describing one segment. `fine`: all its points; `coarse`: a subset of
+  /// them (the multi-scale cut's representatives inside the segment), used for the first
+  /// fit before refining on `fine` (Sec. V-B). Returned parts carry `indices` into `fine`,
+  /// `points` and `residual`; `segment` is set to segment_id.
+  std::vector<Superquadric> recover(const Points3d& fine, const Points3d& coarse,
+                                    int segment_id) const;
+
+ private:
+  SuperquadricParams params_;
+};
+
+}  // namespace novelty_detection
