@@ -16,6 +16,18 @@ if [ $run_rc -ne 0 ]; then
   tail -80 "$WS/test.log" >&2
   log "catkin_make run_tests failed (log: $WS/test.log)"
 fi
-# Prints "Summary: N tests, N errors, N failures, N skipped" and fails on any of them.
-catkin_test_results "$WS/build/test_results"
-exit $run_rc
+# catkin_test_results prints "Summary: N tests, N errors, N failures, N skipped" and fails
+# on any of them; the last line restates it as "tests: N passed, N failed, N skipped".
+set +e
+summary=$(catkin_test_results "$WS/build/test_results")
+results_rc=$?
+set -e
+echo "$summary"
+read -r total errors failures skipped < <(echo "$summary" | sed -n \
+  's/^Summary: \([0-9]*\) tests, \([0-9]*\) errors, \([0-9]*\) failures, \([0-9]*\) skipped.*/\1 \2 \3 \4/p' | tail -1) || true
+total=${total:-0}; errors=${errors:-0}; failures=${failures:-0}; skipped=${skipped:-0}
+failed=$((errors + failures))
+[ $run_rc -ne 0 ] && [ $failed -eq 0 ] && failed=1
+echo "tests: $((total - failed - skipped)) passed, $failed failed, $skipped skipped"
+[ $run_rc -ne 0 ] && exit $run_rc
+exit $results_rc
