@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets with clang (ASan + UBSan) and runs each for a fixed time.
+#   scripts/fuzz.sh [SECONDS_PER_TARGET]   (default 60)
+# Findings are written to .ws/fuzz/<target>/ (crash-*, timeout-*); copy a minimised one to
+# test/fuzz/corpus/<target>/ and add a regression test when fixing it.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+SECONDS_PER_TARGET="${1:-60}"
+command -v clang++ >/dev/null || { echo "clang++ is needed for fuzzing (apt-get install clang)" >&2; exit 1; }
+OUT="$WS/fuzz"
+BIN="$OUT/bin"
+mkdir -p "$BIN"
+PCL_INC=$(ls -d /usr/include/pcl-1.* | tail -1)
+CXXFLAGS=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-omit-frame-pointer
+  -I"$REPO/include" -isystem "$PCL_INC" -isystem /usr/include/eigen3)
+build_target() {  # name, sources...
+  local name=$1; shift
+  log "building $name"
+  clang++ "${CXXFLAGS[@]}" "$@" -o "$BIN/$name" -lpcl_io -lpcl_common \
+    -lboost_system -lboost_filesystem
+}
+build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/core/cloud_io.cpp"
+for target in fuzz_cloud_file; do
+  corpus_src="$REPO/test/fuzz/corpus/${target#fuzz_}"
+  work="$OUT/$target"
+  mkdir -p "$work/corpus"
+  cp -n "$corpus_src"/* "$work/corpus/" 2>/dev/null || true
+  log "running $target for ${SECONDS_PER_TARGET}s"
+  (cd "$work" && "$BIN/$target" -max_total_time="$SECONDS_PER_TARGET" -timeout=10 \
+    -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 corpus > "$work/log.txt" 2>&1) || {
+    tail -40 "$work/log.txt" >&2
+    log "$target found a problem (see $work)"
+    exit 1
+  }
+  grep -E "stat::number_of_executed_units|Done" "$work/log.txt" | tail -2 >&2
+done
+log "fuzzing finished without findings"
