@@ -27,6 +27,12 @@ TEST(Params, DefaultYamlMatchesStructDefaults) {
       << "config/default.yaml is out of date: regenerate it with print_params --yaml";
 }
 
+TEST(Params, ReadmeTableMatchesStructDefaults) {
+  const std::string readme = readFile(std::string(NOVELTY_SOURCE_DIR) + "/README.md");
+  EXPECT_NE(readme.find(novelty_detection::paramsToMarkdown(Params())), std::string::npos)
+      << "README.md's parameter table is out of date: run scripts/update_docs.sh";
+}
+
 TEST(Params, YamlOverridesAndRoundTrips) {
   Params p;
   novelty_detection::loadParamsYamlString("gmm:\n  max_components: 12\nselection:\n  u_th: 0.5\n", p);
