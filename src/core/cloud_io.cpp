@@ -104,14 +104,19 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
     if (sz != "1" && sz != "2" && sz != "4" && sz != "8") fail(path, "malformed pcd header (SIZE)");
     const std::string& t = types[i];
     if (t != "F" && t != "I" && t != "U") fail(path, "malformed pcd header (TYPE)");
+    // PCL maps (TYPE, SIZE) to a datatype; floats exist only as 4 or 8 bytes.
+    if (t == "F" && sz != "4" && sz != "8") fail(path, "malformed pcd header (SIZE of a float)");
     long long count = 1;
     if (!counts.empty()) {
+      std::size_t used = 0;
       try {
-        count = std::stoll(counts[i]);
+        count = std::stoll(counts[i], &used);
       } catch (const std::exception&) {
         fail(path, "malformed pcd header (COUNT)");
       }
-      if (count < 1 || count > 1 << 20) fail(path, "malformed pcd header (COUNT)");
+      if (used != counts[i].size() || count < 1 || count > 1 << 20) {
+        fail(path, "malformed pcd header (COUNT)");
+      }
     }
     point_step += std::stoll(sz) * count;
   }
@@ -167,7 +172,8 @@ CloudFile loadCloudFile(const std::string& path) {
   if (blob.data.size() < expected) fail(path, "data shorter than its header declares");
 
   CloudFile out;
-  pcl::fromPCLPointCloud2(blob, out.cloud);
+  // An empty cloud is valid; PCL's conversion would index its empty buffers.
+  if (blob.width * blob.height > 0) pcl::fromPCLPointCloud2(blob, out.cloud);
   const Eigen::Quaterniond q = orientation.cast<double>();
   out.T_frame_sensor.linear() =
       q.norm() > 0.5 ? q.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();

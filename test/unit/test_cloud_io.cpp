@@ -65,3 +65,33 @@ TEST(CloudIo, FailedSaveLeavesPreviousFileIntact) {
   EXPECT_THROW(saveCloudAtomic("/nonexistent/dir/x.pcd", c), std::runtime_error);
   EXPECT_EQ(loadCloud(path).size(), 1u);
 }
+
+TEST(CloudIo, FuzzFindingsStayFixed) {
+  // Every file kept under test/fuzz/corpus/cloud_file: its first byte picks the extension
+  // (odd: .ply), the rest is the file. Each must load or fail with runtime_error.
+  const std::string dir = std::string(NOVELTY_SOURCE_DIR) + "/test/fuzz/corpus/cloud_file/";
+  for (const char* name : {"regression_float_size2", "pcd_ascii", "pcd_binary", "ply_ascii"}) {
+    std::ifstream in(dir + name, std::ios::binary);
+    ASSERT_TRUE(in.good()) << name;
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_FALSE(bytes.empty());
+    const std::string path = tmpPath(std::string(name) + ((bytes[0] & 1) ? ".ply" : ".pcd"));
+    std::ofstream(path, std::ios::binary) << bytes.substr(1);
+    try {
+      loadCloud(path);
+    } catch (const std::runtime_error&) {
+    }
+  }
+  const std::string f = tmpPath("float2.pcd");
+  std::ofstream(f) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 2\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
+                      "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  EXPECT_NE(errorOf(f).find("SIZE of a float"), std::string::npos);
+}
+
+TEST(CloudIo, EmptyCloudLoadsAsEmpty) {
+  const std::string path = tmpPath("zero.pcd");
+  std::ofstream(path) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                         "WIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA ascii\n";
+  // A sweep with no returns is valid data: it loads as an empty cloud.
+  EXPECT_EQ(loadCloud(path).size(), 0u);
+}
