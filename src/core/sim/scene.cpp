@@ -46,13 +46,13 @@ World assemble(const detail::BuiltLayout& layout, const Movables& m,
 // placed objects, off the robot's footprint, and in view of the current sensor.
 bool samplePlacement(Rng& rng, const detail::BuiltLayout& layout, const std::vector<Circle>& placed,
                      const Eigen::Vector3d& base_ref, const Eigen::Vector3d& base_cur, double r,
-                     Eigen::Vector2d* out) {
+                     double max_distance, Eigen::Vector2d* out) {
   const Eigen::Vector2d lo = layout.free_min.array() + r, hi = layout.free_max.array() - r;
   if ((lo.array() >= hi.array()).any()) return false;
   for (int attempt = 0; attempt < 200; ++attempt) {
     const Eigen::Vector2d c(uniform(rng, lo.x(), hi.x()), uniform(rng, lo.y(), hi.y()));
     const Eigen::Vector2d rel = c - base_cur.head<2>();
-    if (rel.norm() > 8.0) continue;
+    if (rel.norm() > max_distance) continue;
     if ((c - base_ref.head<2>()).norm() < r + 0.8 || rel.norm() < r + 0.8) continue;
     const double bearing = std::remainder(std::atan2(rel.y(), rel.x()) - base_cur.z(), 2 * M_PI);
     if (std::abs(bearing) > 120.0 * kDeg) continue;
@@ -132,6 +132,8 @@ void SceneConfig::validate() const {
       std::abs(pose_offset.z()) > M_PI / 4)
     throw std::invalid_argument(
         "SceneConfig: pose_offset must be finite, within 1 m and 45 deg of the reference");
+  if (!(max_object_distance_m >= 2.0))
+    throw std::invalid_argument("SceneConfig: max_object_distance_m must be >= 2");
   if (min_object_points < 1) throw std::invalid_argument("SceneConfig: min_object_points < 1");
   if (max_placement_attempts < 1)
     throw std::invalid_argument("SceneConfig: max_placement_attempts < 1");
@@ -213,7 +215,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
         desc.reference_pose = Eigen::Vector3d(f.center.x(), f.center.y(), f.yaw);
         circle.radius = f.half.head<2>().norm();
         if (!samplePlacement(rng, layout, placed, base_ref, base_cur, circle.radius,
-                             &circle.center))
+                             config.max_object_distance_m, &circle.center))
           continue;
         f.center = circle.center;
         f.yaw = std::remainder(f.yaw + uniform(rng, -M_PI, M_PI), 2 * M_PI);
@@ -225,7 +227,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
         const detail::ShapeTemplate shape = detail::sampleShape(kind, rng);
         circle.radius = shape.radius;
         if (!samplePlacement(rng, layout, placed, base_ref, base_cur, circle.radius,
-                             &circle.center))
+                             config.max_object_distance_m, &circle.center))
           continue;
         desc.parts = detail::placeParts(shape.parts, circle.center.x(), circle.center.y(),
                                         uniform(rng, -M_PI, M_PI));
