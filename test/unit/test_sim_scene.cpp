@@ -137,6 +137,31 @@ TEST(SimScene, PoseOffsetMovesTheCurrentSensor) {
   EXPECT_THROW(generateScenePair(c), std::invalid_argument);
 }
 
+TEST(SimScene, PoseOffsetIntoAWallIsRefused) {
+  // Offices put the robot 1.0-1.6 m from the wall behind it: a 1 m step back hits the 0.3 m
+  // margin for part of the seeds.
+  int refused = 0, accepted = 0;
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    SceneConfig c;
+    c.seed = seed;
+    c.layout = Layout::kOffice;
+    c.laser.lines = 3;
+    c.novelty_count = 0;
+    c.pose_offset = Eigen::Vector3d(-1.0, 0.0, 0.0);
+    try {
+      const ScenePair s = generateScenePair(c);
+      EXPECT_GE(s.base_pose_current.x(), 0.3);
+      EXPECT_TRUE(s.objects.empty());
+      ++accepted;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("pose_offset"), std::string::npos);
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 0);
+  EXPECT_GT(accepted, 0);
+}
+
 TEST(SimScene, SuiteConfigsAreVariedAndDeterministic) {
   std::set<NoveltyKind> kinds;
   std::set<Layout> layouts;

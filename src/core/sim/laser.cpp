@@ -101,6 +101,8 @@ TiltScan simulateTiltScan(const World& world, const Eigen::Isometry3d& T_world_s
   scan.cloud.width = static_cast<std::uint32_t>(scan.cloud.size());
   scan.cloud.height = 1;
   scan.cloud.is_dense = true;
+  scan.cloud.sensor_origin_ << T_world_sensor.translation().cast<float>(), 0.0f;
+  scan.cloud.sensor_orientation_ = Eigen::Quaternionf(T_world_sensor.linear().cast<float>());
   return scan;
 }
 

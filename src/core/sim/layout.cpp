@@ -183,6 +183,7 @@ void addFurnitureAgainstWalls(BuiltLayout& out, const Eigen::Vector2d& mn,
       if (!ok || footprintDistance(fp, sensor) < 0.7) continue;
       out.furniture.push_back(f);
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }
@@ -255,6 +256,7 @@ BuiltLayout buildCorridor(Rng& rng) {
           Eigen::Vector3d(fp.center.x(), fp.center.y(), 0.5 * H), Eigen::Matrix3d::Identity(),
           Eigen::Vector3d(fp.half.x(), fp.half.y(), 0.5 * H)));
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }
@@ -289,6 +291,7 @@ BuiltLayout buildOffice(Rng& rng) {
           std::make_shared<Cylinder>(Eigen::Vector3d(fp.center.x(), fp.center.y(), 0.5 * H),
                                      Eigen::Matrix3d::Identity(), fp.radius, 0.5 * H));
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }

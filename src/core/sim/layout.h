@@ -51,6 +51,7 @@ struct BuiltLayout {
   Eigen::Vector2d free_min = Eigen::Vector2d::Zero();  ///< interior where objects may stand
   Eigen::Vector2d free_max = Eigen::Vector2d::Zero();
   std::vector<Footprint> obstacles;  ///< pillars, furniture, space in front of doors
+  std::vector<Footprint> solids;     ///< pillars and furniture only
   Eigen::Vector3d base_pose = Eigen::Vector3d::Zero();  ///< reference robot x, y, yaw
   double height = 2.7;                                  ///< floor to ceiling [m]
 };

@@ -160,6 +160,16 @@ ScenePair generateScenePair(const SceneConfig& config) {
   const Eigen::Vector2d d = Eigen::Rotation2Dd(base_ref.z()) * config.pose_offset.head<2>();
   const Eigen::Vector3d base_cur(base_ref.x() + d.x(), base_ref.y() + d.y(),
                                  base_ref.z() + config.pose_offset.z());
+  // The robot must stand in the room, not in a wall or a piece of furniture.
+  const Eigen::Vector2d base_xy = base_cur.head<2>();
+  bool free = (base_xy.array() > layout.free_min.array() + 0.3).all() &&
+              (base_xy.array() < layout.free_max.array() - 0.3).all();
+  for (const auto& solid : layout.solids)
+    if (detail::footprintDistance(solid, base_xy) < 0.3) free = false;
+  if (!free)
+    throw std::invalid_argument(
+        "SceneConfig: pose_offset puts the current sensor within 0.3 m of a wall or of "
+        "furniture in this layout");
   const Eigen::Isometry3d T_ref = sensorPose(base_ref.x(), base_ref.y(), base_ref.z(), h);
   const Eigen::Isometry3d T_cur = sensorPose(base_cur.x(), base_cur.y(), base_cur.z(), h);
 
