@@ -27,7 +27,7 @@ double footprintDistance(const Footprint& f, const Eigen::Vector2d& p);
 struct DoorSpec {
   Eigen::Vector2d hinge = Eigen::Vector2d::Zero();
   Eigen::Vector2d along = Eigen::Vector2d::UnitX();  ///< from hinge across the opening
-  Eigen::Vector2d into = Eigen::Vector2d::UnitY();   ///< the side it opens to (a recess)
+  Eigen::Vector2d into = Eigen::Vector2d::UnitY();   ///< the side it opens to
   double width = 0.86, height = 2.0, thickness = 0.04;
   double angle_rad = 0.0;  ///< reference opening angle
 };

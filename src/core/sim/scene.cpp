@@ -195,17 +195,24 @@ ScenePair generateScenePair(const SceneConfig& config) {
       desc.id = id;
       desc.kind = kind;
       Circle circle{Eigen::Vector2d::Zero(), 0.0};
+      int door_index = -1;
+      double door_ref_angle = 0.0;
       if (kind == NoveltyKind::kDoorAngle) {
         std::vector<int> free_doors;
         for (std::size_t i = 0; i < layout.doors.size(); ++i)
           if (state.door_id[i] == 0) free_doors.push_back(static_cast<int>(i));
         if (free_doors.empty()) break;
         const int di = free_doors[uniformInt(rng, 0, static_cast<int>(free_doors.size()) - 1)];
-        const double ref = state.door_angle[di];
-        // A change of at least 40 deg, inside [0, 90] deg.
-        const double cur = ref < 45.0 * kDeg
-                               ? std::min(90.0 * kDeg, ref + uniform(rng, 40.0, 80.0) * kDeg)
-                               : std::max(0.0, ref - uniform(rng, 40.0, 80.0) * kDeg);
+        // The door's reference state is part of the layout's randomness too: draw both
+        // angles in [0, 90] deg, at least 40 deg apart (some pairs leave the leaf hidden in
+        // its recess; those fail the visibility test and are redrawn).
+        double ref = 0.0, cur = 0.0;
+        do {
+          ref = uniform(rng, 0.0, 90.0) * kDeg;
+          cur = uniform(rng, 0.0, 90.0) * kDeg;
+        } while (std::abs(ref - cur) < 40.0 * kDeg);
+        door_ref_angle = ref;
+        door_index = di;
         state.door_angle[di] = cur;
         state.door_id[di] = id;
         desc.door_angle_reference_rad = ref;
@@ -255,6 +262,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
       }
       if (!visible) continue;
       cur_state = state;
+      if (door_index >= 0) ref_state.door_angle[door_index] = door_ref_angle;
       object_prims.push_back(prims);
       objects.push_back(desc);
       if (circle.radius > 0) placed.push_back(circle);
