@@ -56,6 +56,7 @@ Eigen::Vector3d beamDirection(double azimuth_rad, double tilt_rad) {
 
 LaserLine simulateTiltLine(const World& world, const Eigen::Isometry3d& T_world_sensor,
                            const LaserConfig& config, double tilt_rad, Rng& rng) {
+  config.validate();
   const int n = config.beamsPerLine();
   const double sigma = std::sqrt(config.noise_variance_m2);
   LaserLine line;
