@@ -210,3 +210,15 @@ TEST(SimScene, NamesRoundTripAndBadNamesThrow) {
   EXPECT_THROW(layoutFromString("kitchen"), std::invalid_argument);
   EXPECT_THROW(noveltyKindFromString("cat"), std::invalid_argument);
 }
+
+TEST(SimScene, DefaultSuitePlacesEveryPlannedNovelty) {
+  // The 30 scenes of `simulate_scans --suite 30` (suite seed 1) keep all their novelties,
+  // each with enough points, and all sweeps have about 30k points.
+  for (int i = 0; i < 30; ++i) {
+    const SceneConfig c = suiteSceneConfig(i, 1);
+    const ScenePair s = generateScenePair(c);
+    EXPECT_EQ(s.objects.size(), c.novelty_kinds.size()) << "scene " << i;
+    for (const auto& o : s.objects) EXPECT_GE(o.points, c.min_object_points) << "scene " << i;
+    EXPECT_GT(s.current.size(), 29000u) << "scene " << i;
+  }
+}
