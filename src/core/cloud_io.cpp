@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <vector>
 #include <stdexcept>
@@ -49,11 +50,17 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
   std::string data;
   std::string line;
   std::size_t header_bytes = 0;
+  std::set<std::string> seen;
   int lines = 0;
   while (std::getline(in, line)) {
     header_bytes += line.size() + 1;
     if (++lines > 64 || header_bytes > 65536) fail(path, "malformed pcd header (too long)");
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    // PCL splits header lines on other characters than we do; only plain text lines, each
+    // declaration once, are parsed the same way by both.
+    for (char c : line) {
+      if (c != '\t' && (c < 32 || c > 126)) fail(path, "malformed pcd header (control byte)");
+    }
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
     std::string key;
@@ -71,6 +78,10 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
         fail(path, std::string("malformed pcd header: bad ") + what);
       }
     };
+    const std::string canonical = key == "COLUMNS" ? "FIELDS" : key;
+    if (!seen.insert(canonical).second) {
+      fail(path, "malformed pcd header (" + canonical.substr(0, 32) + " declared twice)");
+    }
     if (key == "VERSION" || key == "VIEWPOINT") continue;
     if (key == "FIELDS" || key == "COLUMNS") fields = values;
     else if (key == "SIZE") sizes = values;
