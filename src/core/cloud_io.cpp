@@ -142,6 +142,73 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
   }
 }
 
+// The PLY counterpart: PCL allocates element storage from the header's counts before
+// reading, so counts must be sane numbers that the file can actually hold.
+void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open");
+  std::string line;
+  std::size_t header_bytes = 0;
+  int lines = 0;
+  bool magic = false, format = false, vertex = false, end = false;
+  std::string kind;
+  std::uintmax_t min_body_bytes = 0;
+  std::uintmax_t current_count = 0;
+  bool current_is_list = false;
+  while (std::getline(in, line)) {
+    header_bytes += line.size() + 1;
+    if (++lines > 256 || header_bytes > 65536) fail(path, "malformed ply header (too long)");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    for (char c : line) {
+      if (c != '\t' && (c < 32 || c > 126)) fail(path, "malformed ply header (control byte)");
+    }
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    if (lines == 1) {
+      if (key != "ply") fail(path, "not a ply file (no 'ply' magic)");
+      magic = true;
+      continue;
+    }
+    if (key == "format") {
+      ls >> kind;
+      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") {
+        fail(path, "malformed ply header (unknown format)");
+      }
+      format = true;
+    } else if (key == "element") {
+      std::string name, count;
+      ls >> name >> count;
+      std::size_t used = 0;
+      long long n = -1;
+      try {
+        n = std::stoll(count, &used);
+      } catch (const std::exception&) {
+      }
+      if (n < 0 || used != count.size() || static_cast<std::uintmax_t>(n) > file_size) {
+        fail(path, "malformed ply header (element count '" + count.substr(0, 32) + "')");
+      }
+      if (name == "vertex") vertex = true;
+      current_count = static_cast<std::uintmax_t>(n);
+      current_is_list = false;
+    } else if (key == "property") {
+      std::string type;
+      ls >> type;
+      if (type == "list") current_is_list = true;
+      // Every property of every element takes at least one byte (binary) or char (ascii).
+      if (!current_is_list) min_body_bytes += current_count;
+    } else if (key == "end_header") {
+      end = true;
+      break;
+    }
+  }
+  if (!magic || !format || !end) fail(path, "malformed ply header");
+  if (!vertex) fail(path, "ply file has no vertex element");
+  if (header_bytes + min_body_bytes > file_size) {
+    fail(path, "truncated ply file (body shorter than its header declares)");
+  }
+}
+
 }  // namespace
 
 CloudFile loadCloudFile(const std::string& path) {
@@ -163,6 +230,7 @@ CloudFile loadCloudFile(const std::string& path) {
       int version = 0;
       rc = reader.read(path, blob, origin, orientation, version);
     } else if (ext == "ply") {
+      validatePlyHeader(path, static_cast<std::uintmax_t>(st.st_size));
       pcl::PLYReader reader;
       int version = 0;
       rc = reader.read(path, blob, origin, orientation, version);
