@@ -6,8 +6,10 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <random>
 #include <stdexcept>
 
+#include "../../src/core/detail/knn.h"
 #include "novelty_detection/preprocess.h"
 #include "synthetic_scene.h"
 
@@ -46,6 +48,33 @@ TEST(FiniteIndices, SkipsNanAndInfinity) {
   cloud.push_back(nd::PointT(0, 0, -inf));
   cloud.push_back(nd::PointT(4, 5, 6));
   EXPECT_EQ(nd::finiteIndices(cloud), (nd::Indices{0, 2, 5}));
+}
+
+TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 1500; ++k) pts.emplace_back(u(rng), u(rng), 0.1f * u(rng));
+  for (int k = 0; k < 50; ++k) pts.push_back(pts[k]);  // duplicates: distance 0 neighbours
+  for (const int k : {1, 8, 40}) {
+    const std::vector<double> fast = nd::detail::KnnTree(pts).meanNeighbourDistances(k);
+    ASSERT_EQ(fast.size(), pts.size());
+    for (std::size_t i = 0; i < pts.size(); i += 7) {
+      std::vector<double> d;
+      for (std::size_t j = 0; j < pts.size(); ++j) {
+        if (j != i) d.push_back((pts[i] - pts[j]).norm());
+      }
+      std::sort(d.begin(), d.end());
+      const double mean = std::accumulate(d.begin(), d.begin() + k, 0.0) / k;
+      ASSERT_NEAR(fast[i], mean, 1e-6) << "point " << i << " k " << k;
+    }
+  }
+  // k is clamped to the other points; a single point has no neighbours.
+  const std::vector<Eigen::Vector3f> two{Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(3, 4, 0)};
+  EXPECT_EQ(nd::detail::KnnTree(two).meanNeighbourDistances(8), (std::vector<double>{5, 5}));
+  EXPECT_EQ(nd::detail::KnnTree({Eigen::Vector3f(1, 1, 1)}).meanNeighbourDistances(8),
+            (std::vector<double>{0}));
+  EXPECT_TRUE(nd::detail::KnnTree({}).meanNeighbourDistances(8).empty());
 }
 
 // Sparse outliers (1 % of the points, uniform in a 9 m room, at least 0.2 m from every
