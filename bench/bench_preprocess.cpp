@@ -5,11 +5,14 @@
 //
 //   bench_preprocess --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 //   bench_preprocess --dump_multiscale=PREFIX   # writes PREFIX_<noise>.txt for the figure
+//   scripts/plot_multiscale.py OUT.png PREFIX_0.0050.txt PREFIX_0.0316.txt
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -157,8 +160,25 @@ BENCHMARK(BM_Cut)->SIZES;
 BENCHMARK(BM_Preprocessor)->SIZES;
 BENCHMARK(BM_PreprocessAndSample)->SIZES;
 
-/// For the README figure: per noise level, the pre-processed 30k sweep's representatives at
-/// the default scale with their cluster sizes ("x y z size" lines).
+/// Distance from p to the nearest edge of an axis-aligned box (its 12 edges).
+double edgeDistance(const Eigen::Vector3d& p, const syn::AlignedBox& b) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    const int u = (a + 1) % 3, v = (a + 2) % 3;
+    const double along = std::max({b.lo(a) - p(a), p(a) - b.hi(a), 0.0});
+    for (const double eu : {b.lo(u), b.hi(u)}) {
+      for (const double ev : {b.lo(v), b.hi(v)}) {
+        best = std::min(best, std::sqrt(along * along + (p(u) - eu) * (p(u) - eu) +
+                                         (p(v) - ev) * (p(v) - ev)));
+      }
+    }
+  }
+  return best;
+}
+
+/// For the README figure: per noise level, the pre-processed 30k sweep at the default scale:
+/// "r x y z size" per representative, "p x y z size edge" per point (size of its cluster,
+/// true distance to the nearest edge of the scene).
 int dumpMultiscale(const std::string& prefix) {
   for (const double noise : {0.005, 0.0316}) {
     const syn::Scene s = syn::makeCorridor(options(30000, noise));
@@ -177,8 +197,17 @@ int dumpMultiscale(const std::string& prefix) {
     std::fprintf(f, "# noise %.4f input %zu preprocessed %zu representatives %zu\n", noise,
                  s.cloud.size(), r.kept.size(), cut.points.size());
     for (std::size_t c = 0; c < cut.points.size(); ++c) {
-      std::fprintf(f, "%.4f %.4f %.4f %d\n", cut.points[c].x(), cut.points[c].y(),
+      std::fprintf(f, "r %.3f %.3f %.3f %d\n", cut.points[c].x(), cut.points[c].y(),
                    cut.points[c].z(), cut.sizes[c]);
+    }
+    const syn::SceneOptions opt = options(30000, noise);
+    for (int i : r.kept) {
+      // Ground truth: distance to the nearest edge of the corridor or of an object.
+      const Eigen::Vector3d p = s.cloud[i].getVector3fMap().cast<double>();
+      double edge = edgeDistance(p, opt.room);
+      for (const auto& b : opt.objects) edge = std::min(edge, edgeDistance(p, b));
+      std::fprintf(f, "p %.3f %.3f %.3f %d %.3f\n", p.x(), p.y(), p.z(),
+                   cut.sizes[cut.cluster_of[i]], edge);
     }
     std::fclose(f);
     std::printf("%s: %zu points -> %zu preprocessed -> %zu representatives\n", path.c_str(),
