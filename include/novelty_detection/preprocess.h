@@ -45,8 +45,8 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 ///     ground_distance_m on a random subset of ground_sample_points points. Among the
 ///     hypotheses with at least ground_lowest_support of the best score the LOWEST wins, so
 ///     a ceiling or a table top seen more densely than the floor is not taken for it.
-///  2. Refinement: the normal by least squares and the offset by the median residual of the
-///     points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
+///  2. Refinement (on the same subset): the normal by least squares and the offset by the
+///     median residual of the points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
 ///     point (sigma starts at ground_distance_m). The median is robust to what stands on
 ///     the floor (boxes, the foot of walls), which only ever lies above it.
 ///  3. Inliers: |distance| <= max(ground_distance_m, ground_noise_k * sigma).
