@@ -20,6 +20,7 @@ struct PreprocessParams {
   bool outlier_removal = true;     ///< statistical outlier removal (Rusu et al. 2008)
   int outlier_k = 8;               ///< neighbours for the mean distance
   double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
+  bool outlier_range_scaled = false;  ///< divide mean distances by the range from the sensor
   bool ground_removal = true;      ///< RANSAC ground plane removal
   double ground_distance_m = 0.03; ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
@@ -36,6 +37,9 @@ struct PreprocessParams {
     f("outlier_k", outlier_k, "neighbours used for the mean neighbour distance");
     f("outlier_std_mul", outlier_std_mul,
       "a point is an outlier when its mean distance exceeds mu + outlier_std_mul * sigma");
+    f("outlier_range_scaled", outlier_range_scaled,
+      "divide each mean distance by the point's range from the cloud's sensor origin (the "
+      "spacing of a scanning sensor grows with range)");
     f("ground_removal", ground_removal, "enable RANSAC ground plane removal");
     f("ground_distance_m", ground_distance_m, "max distance of a ground inlier to the plane [m]");
     f("ground_max_angle_deg", ground_max_angle_deg,

@@ -33,6 +33,13 @@ Indices finiteIndices(const Cloud& cloud);
 Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
                              Indices* removed = nullptr);
 
+/// As above, each mean distance divided by the point's range from `sensor_origin` (at least
+/// 1 m): a scanning sensor samples at fixed angles, so its spacing grows with range, and
+/// Rusu's global statistic would otherwise take far, sparsely sampled walls for outliers.
+Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
+                                        double std_mul, const Eigen::Vector3f& sensor_origin,
+                                        Indices* removed = nullptr);
+
 /// RANSAC plane within `max_angle_deg` of horizontal (normal near +z of the cloud's frame)
 /// over `indices`; inliers within `distance_m`. The other settings take PreprocessParams'
 /// defaults (see the overload below, which this calls).
@@ -64,6 +71,9 @@ class Preprocessor {
   /// all-NaN cloud gives an empty result; a cloud too small for a step (fewer than 2
   /// points for outliers, 3 for a plane) passes that step unchanged.
   PreprocessResult compute(const Cloud& cloud) const;
+  /// With the sensor position given explicitly (compute(cloud) uses cloud.sensor_origin_,
+  /// PCL's viewpoint, which the simulator and saveCloudAtomic fill in).
+  PreprocessResult compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin) const;
 
  private:
   PreprocessParams params_;
