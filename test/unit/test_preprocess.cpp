@@ -367,6 +367,12 @@ TEST(PreprocessSimulated, CorridorAtPaperNoise) {
     EXPECT_LT(floor_left, 0.02 * r.ground.inliers.size()) << "seed " << seed;
     // Rusu's global statistic drops some far, sparsely sampled wall points; not more.
     EXPECT_LT(r.outliers.size(), 0.025 * cloud.size()) << "seed " << seed;
+    {
+      const Eigen::Vector4d& c = r.ground.coefficients;
+      const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
+      std::printf("angle %.3f deg, d %.4f, height under sensor %.4f\n",
+                  angleToZDeg(c), c(3), -(c(3) + c(0) * o.x() + c(1) * o.y()) / c(2));
+    }
     std::printf("seed %d: %zu points, %zu kept, ground %zu (threshold %.3f m), outliers %zu, "
                 "floor left below %d, novel above kept %d/%d\n",
                 static_cast<int>(seed), cloud.size(), r.kept.size(), r.ground.inliers.size(),
