@@ -176,6 +176,32 @@ TEST(MultiScaleTree, CornerIsSplitAndStaysDenserThanFaces) {
       << face_n << " mean " << face_sum / face_n;
 }
 
+TEST(MultiScaleTree, RightAngleEdgeIsSplitIntoItsFaces) {
+  // Two unit squares meeting at a right angle along the z axis (x = 0 and y = 0 faces).
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  nd::Cloud cloud;
+  for (int k = 0; k < 1500; ++k) cloud.push_back(nd::PointT(0, u(rng), u(rng)));
+  for (int k = 0; k < 1500; ++k) cloud.push_back(nd::PointT(u(rng), 0, u(rng)));
+  Tree tree;
+  tree.build(cloud);
+  // Covariance eigenvalues of the L: 1/24 along (1,1,0), 1/12 along z, 1/6 along (1,-1,0):
+  // sigma = 1/7. The split normal to (1,-1,0) through the centroid separates the faces.
+  EXPECT_NEAR(tree.nodes()[0].sigma, 1.0 / 7.0, 0.01);
+  const Tree::Cut cut = tree.cut(1 << 20, 0.01);
+  expectPartition(tree, cloud, cut, 1 << 20, 0.01);
+  ASSERT_EQ(cut.nodes.size(), 2u);
+  for (const int node : cut.nodes) EXPECT_LT(tree.nodes()[node].sigma, 1e-4);
+  // One face each, but for points within the sampling offset of the centroid from the
+  // edge's bisector, which can fall on the other side.
+  const int face_of_x0 = cut.cluster_of[0];
+  for (int i = 0; i < 3000; ++i) {
+    const bool on_x0 = i < 1500;
+    const float from_edge = on_x0 ? cloud[i].y : cloud[i].x;
+    if (from_edge > 0.03f) EXPECT_EQ(cut.cluster_of[i] == face_of_x0, on_x0) << "point " << i;
+  }
+}
+
 TEST(MultiScaleTree, CutSizesShrinkAsScaleGrows) {
   novelty_detection::synthetic::SceneOptions opt;
   opt.points = 20000;
