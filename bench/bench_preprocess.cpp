@@ -8,10 +8,10 @@
 //   scripts/plot_multiscale.py OUT.png PREFIX_0.0050.txt PREFIX_0.0316.txt
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <algorithm>
 #include <limits>
 #include <map>
 #include <string>
@@ -204,8 +204,8 @@ double edgeDistance(const Eigen::Vector3d& p, const syn::AlignedBox& b) {
     const double along = std::max({b.lo(a) - p(a), p(a) - b.hi(a), 0.0});
     for (const double eu : {b.lo(u), b.hi(u)}) {
       for (const double ev : {b.lo(v), b.hi(v)}) {
-        best = std::min(best, std::sqrt(along * along + (p(u) - eu) * (p(u) - eu) +
-                                         (p(v) - ev) * (p(v) - ev)));
+        best = std::min(
+            best, std::sqrt(along * along + (p(u) - eu) * (p(u) - eu) + (p(v) - ev) * (p(v) - ev)));
       }
     }
   }

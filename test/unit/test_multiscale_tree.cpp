@@ -39,8 +39,8 @@ nd::Cloud corner(int n, unsigned seed) {
 }
 
 /// Checks that the cut partitions the tree's points and agrees with the nodes.
-void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& cut,
-                     int n_max, double sigma_max, bool pauly_scale = true) {
+void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& cut, int n_max,
+                     double sigma_max, bool pauly_scale = true) {
   ASSERT_EQ(cut.cluster_of.size(), cloud.size());
   ASSERT_EQ(cut.points.size(), cut.nodes.size());
   ASSERT_EQ(cut.sizes.size(), cut.nodes.size());
@@ -172,8 +172,8 @@ TEST(MultiScaleTree, CornerIsSplitAndStaysDenserThanFaces) {
   ASSERT_GT(edge_n, 0);
   ASSERT_GT(face_n, 0);
   EXPECT_LT(edge_sum / edge_n, 0.2 * face_sum / face_n)
-      << "edge clusters " << edge_n << " mean " << edge_sum / edge_n << ", face clusters "
-      << face_n << " mean " << face_sum / face_n;
+      << "edge clusters " << edge_n << " mean " << edge_sum / edge_n << ", face clusters " << face_n
+      << " mean " << face_sum / face_n;
 }
 
 TEST(MultiScaleTree, RightAngleEdgeIsSplitIntoItsFaces) {
@@ -323,8 +323,8 @@ TEST(MultiScaleTree, NoiseEstimateAndNoiseAwareCut) {
     previous = size;
   }
   nd::MultiScaleParams p;
-  EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max,
-                                        p.noise_factor * tree.noiseVariance()).nodes);
+  EXPECT_EQ(tree.cut(p).nodes,
+            tree.cut(p.n_max, p.sigma_max, p.noise_factor * tree.noiseVariance()).nodes);
   p.noise_aware = false;
   EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max).nodes);
   EXPECT_THROW(tree.cut(8, 0.01, -1.0), std::invalid_argument);
