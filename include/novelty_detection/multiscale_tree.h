@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "novelty_detection/params.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -15,12 +16,13 @@ namespace novelty_detection {
 class MultiScaleTree {
  public:
   struct Node {
-    int begin = 0, end = 0;           ///< range in order() of the node's points
-    int left = -1, right = -1;        ///< children, -1 for a leaf
+    int begin = 0, end = 0;     ///< range in order() of the node's points
+    int left = -1, right = -1;  ///< children, -1 for a leaf
     int parent = -1;
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
-    float sigma = 0.f;                ///< surface variation
+    float sigma = 0.f;                                      ///< surface variation
+    Eigen::Vector3f eigenvalues = Eigen::Vector3f::Zero();  ///< of covariance, ascending
     int size() const { return end - begin; }
     bool isLeaf() const { return left < 0; }
   };
@@ -33,9 +35,32 @@ class MultiScaleTree {
     std::vector<int> cluster_of;          ///< per INPUT-cloud index: cluster number, -1 if absent
   };
 
-  /// Builds the tree over cloud[indices] (all finite points when indices is empty).
+  /// Nodes with at most this many points are leaves (a cut never goes finer). Pauly et al.
+  /// build down to single points; 4 keeps the tree at about N/2 nodes while the finest cut
+  /// still averages ~3 points per representative.
+  static constexpr int kMaxLeafSize = 4;
+
+  /// Builds the tree over cloud[indices] (all finite points when indices is empty),
+  /// O(N log N). Non-finite points named in `indices` are left out (cluster -1 in every
+  /// cut); an index outside the cloud or given twice throws std::invalid_argument. Clusters
+  /// without spread (duplicate points) become leaves of any size. An empty selection gives
+  /// an empty tree whose cuts are empty.
   void build(const Cloud& cloud, const Indices& indices = {});
+  /// The scale (n_max, sigma_max): O(number of clusters + cloud size), no rebuild. Throws
+  /// std::invalid_argument for n_max < 1 or sigma_max < 0 (or NaN).
   Cut cut(int n_max, double sigma_max) const;
+  /// Noise-aware scale: as cut(n_max, sigma_max) with the surface variation computed from
+  /// l0 - noise_var_m2 (clamped at 0), i.e. a cluster whose thickness is explained by
+  /// sensor noise of that variance counts as flat. noise_var_m2 = 0 is Pauly's rule.
+  Cut cut(int n_max, double sigma_max, double noise_var_m2) const;
+  /// The scale the parameters name: cut(n_max, sigma_max), or with noise_aware the
+  /// noise-aware cut discounting noise_factor * noiseVariance().
+  Cut cut(const MultiScaleParams& params) const;
+  /// Robust estimate of the noise variance normal to the surfaces [m^2]: the median over
+  /// the nodes of 8..64 points (mostly patches of planes, whose thickness is the noise) of
+  /// their smallest eigenvalue, corrected for the plane fit's degrees of freedom. 0 for an
+  /// empty or tiny tree.
+  double noiseVariance() const { return noise_variance_m2_; }
 
   const std::vector<Node>& nodes() const { return nodes_; }
   /// Input-cloud indices in tree order: node n owns order()[n.begin, n.end).
@@ -47,6 +72,7 @@ class MultiScaleTree {
   std::vector<Node> nodes_;
   Indices order_;
   std::size_t cloud_size_ = 0;
+  double noise_variance_m2_ = 0.0;
 };
 
 }  // namespace novelty_detection
