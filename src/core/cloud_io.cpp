@@ -257,6 +257,9 @@ CloudFile loadCloudFile(const std::string& path) {
   out.T_frame_sensor.linear() =
       q.norm() > 0.5 ? q.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();
   out.T_frame_sensor.translation() = origin.head<3>().cast<double>();
+  // Keep the viewpoint on the cloud too, as PCL does, for code that reads it from there.
+  out.cloud.sensor_origin_ = Eigen::Vector4f(origin[0], origin[1], origin[2], 0.f);
+  out.cloud.sensor_orientation_ = Eigen::Quaternionf(out.T_frame_sensor.linear().cast<float>());
   return out;
 }
 

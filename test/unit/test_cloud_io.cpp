@@ -38,6 +38,8 @@ TEST(CloudIo, RoundTripKeepsPointsNaNsAndViewpoint) {
   EXPECT_TRUE(std::isnan(f.cloud[1].x));
   EXPECT_NEAR((f.T_frame_sensor.translation() - T.translation()).norm(), 0.0, 1e-6);
   EXPECT_NEAR((f.T_frame_sensor.linear() - T.linear()).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((f.cloud.sensor_origin_.head<3>().cast<double>() - T.translation()).norm(), 0.0,
+              1e-6);
 }
 
 TEST(CloudIo, BadFilesGiveSpecificErrors) {
