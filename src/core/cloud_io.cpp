@@ -61,7 +61,11 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
     for (char c : line) {
       if (c != '\t' && (c < 32 || c > 126)) fail(path, "malformed pcd header (control byte)");
     }
-    if (line.empty() || line[0] == '#') continue;
+    // PCL's header parser crashes on blank or whitespace-led lines; the format has none.
+    if (line.empty() || line[0] == ' ' || line[0] == '\t') {
+      fail(path, "malformed pcd header (blank line)");
+    }
+    if (line[0] == '#') continue;
     std::istringstream ls(line);
     std::string key;
     ls >> key;
