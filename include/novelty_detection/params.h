@@ -126,9 +126,9 @@ struct SuperquadricParams {
   int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
   int split_max_points = 2400;      ///< split and merge works on at most this many points
   int split_min_points = 40;        ///< a part is not split into halves smaller than this
-  int split_fit_points = 100;       ///< parts are subsampled to this while splitting/merging
+  int split_fit_points = 80;        ///< parts are subsampled to this while splitting/merging
   double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
-  double split_force_factor = 1.5;  ///< split regardless of gain above this x exact error
+  double split_force_factor = 1.25; ///< split regardless of gain above this x exact error
   double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
   double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
   double noise_factor = 2.0;        ///< ... and so are fits within this x estimated noise

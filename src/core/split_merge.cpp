@@ -84,9 +84,10 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   if (points.empty()) throw std::invalid_argument("SplitMerge::run: no points");
   stats_ = Stats();
   // Fits inside split and merge only rank candidates: fewer LM iterations suffice.
-  const int inner_iterations = std::min(params_.max_iterations, 20);
+  const int inner_iterations = std::min(params_.max_iterations, 15);
   auto fit_part = [&](const Indices& indices) {
-    return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points));
+    return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points),
+                       inner_iterations);
   };
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
