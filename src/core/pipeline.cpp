@@ -7,6 +7,7 @@ namespace novelty_detection {
 
 struct ReferenceModel {
   Cloud cloud;
+  Gmm gmm;
 };
 
 Pipeline::Pipeline(const Params& params) : params_(params) { params_.validate(); }
@@ -23,6 +24,11 @@ void Pipeline::setReference(const Cloud& reference) {
 const Cloud& Pipeline::referenceCloud() const {
   if (!reference_) throw std::logic_error("no reference set");
   return reference_->cloud;
+}
+
+const Gmm& Pipeline::referenceGmm() const {
+  static const Gmm empty;
+  return reference_ ? reference_->gmm : empty;
 }
 
 Result Pipeline::detect(const Cloud& current) const {
