@@ -21,9 +21,13 @@ struct PreprocessParams {
   int outlier_k = 8;               ///< neighbours for the mean distance
   double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
   bool ground_removal = true;      ///< RANSAC ground plane removal
-  double ground_distance_m = 0.03; ///< inlier distance to the plane
+  double ground_distance_m = 0.03; ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
   int ground_max_iterations = 200;     ///< RANSAC iterations
+  double ground_noise_k = 3.0;  ///< threshold = max(ground_distance_m, k * sigma_floor)
+  int ground_sample_points = 4096;       ///< RANSAC scores hypotheses on this many points
+  double ground_min_fraction = 0.05;     ///< a ground plane holds at least this share
+  double ground_lowest_support = 0.3;    ///< lowest plane with >= this * best support wins
 
   template <class F>
   void visit(F&& f) {
@@ -37,6 +41,16 @@ struct PreprocessParams {
     f("ground_max_angle_deg", ground_max_angle_deg,
       "max angle between the ground normal and the fixed frame's +z [deg]");
     f("ground_max_iterations", ground_max_iterations, "RANSAC iterations for the ground plane");
+    f("ground_noise_k", ground_noise_k,
+      "ground inliers lie within max(ground_distance_m, ground_noise_k * sigma) of the plane, "
+      "sigma the floor's noise estimated robustly (MAD) from the data");
+    f("ground_sample_points", ground_sample_points,
+      "RANSAC scores plane hypotheses on a random subset of this many points");
+    f("ground_min_fraction", ground_min_fraction,
+      "no ground is removed unless the plane holds at least this fraction of the points");
+    f("ground_lowest_support", ground_lowest_support,
+      "of the near-horizontal planes holding at least this fraction of the best one's "
+      "support, the lowest is the ground (not a table top or the ceiling)");
   }
   void validate() const;
 };

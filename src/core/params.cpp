@@ -24,6 +24,10 @@ void PreprocessParams::validate() const {
   requireRange("preprocess/ground_distance_m", ground_distance_m, 1e-4, 1.0);
   requireRange("preprocess/ground_max_angle_deg", ground_max_angle_deg, 0.0, 90.0);
   requireRange("preprocess/ground_max_iterations", ground_max_iterations, 1, 100000);
+  requireRange("preprocess/ground_noise_k", ground_noise_k, 0.0, 100.0);
+  requireRange("preprocess/ground_sample_points", ground_sample_points, 3, 100000000);
+  requireRange("preprocess/ground_min_fraction", ground_min_fraction, 0.0, 1.0);
+  requireRange("preprocess/ground_lowest_support", ground_lowest_support, 0.0, 1.0);
 }
 
 void MultiScaleParams::validate() const {
