@@ -58,6 +58,10 @@ class GmmFitter {
   /// EM started from `init` (its weights, means, covariances). Components may be dropped.
   Gmm fitFrom(const WeightedPoints& data, const Gmm& init, EmStats* stats = nullptr) const;
 
+  /// EM on the weights alone: means and covariances of `init` stay fixed (used to express
+  /// the current sweep in the map's Gaussians). Same convergence rule; no component dropped.
+  Gmm fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* stats = nullptr) const;
+
   /// Mixture whose component k is the weighted moments of the points with label k
   /// (labels in [0, k), negative = ignored). Empty labels are skipped.
   Gmm initFromLabels(const WeightedPoints& data, const std::vector<int>& labels, int k) const;

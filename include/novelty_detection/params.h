@@ -72,7 +72,8 @@ struct MultiScaleParams {
 struct GmmParams {
   int max_components = 64;            ///< cap on the number of Gaussians (the paper's speed cap)
   double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
-  int max_iterations = 50;            ///< EM iteration cap
+  int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
+  int max_iterations = 30;            ///< EM iteration cap
   double tolerance = 1e-4;            ///< stop when the mean log-likelihood gains less [nats]
   double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
   bool current_from_reference = true; ///< start the current EM from the reference mixture
@@ -84,6 +85,8 @@ struct GmmParams {
     f("max_components", max_components, "maximum number of Gaussians per mixture");
     f("points_per_component", points_per_component,
       "number of Gaussians = clamp(ceil(points / points_per_component), 1, max_components)");
+    f("max_fit_points", max_fit_points,
+      "EM is fitted on the multi-scale cut, coarsened until it has about this many clusters");
     f("max_iterations", max_iterations, "EM iteration cap");
     f("tolerance", tolerance, "EM stops when the mean log-likelihood gains less than this");
     f("min_variance_m2", min_variance_m2, "covariance regularisation added to the diagonal [m^2]");
@@ -128,6 +131,7 @@ struct SegmentationParams {
   double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
   double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
   int min_segment_points = 20;          ///< smaller segments are dropped
+  double map_likelihood_quantile = 0.01; ///< points likelier under Gamma are not novel (0: off)
 
   template <class F>
   void visit(F&& f) {
@@ -140,6 +144,9 @@ struct SegmentationParams {
     f("link_factor", link_factor,
       "novel points closer than link_factor * their median 4-NN spacing join one segment");
     f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
+    f("map_likelihood_quantile", map_likelihood_quantile,
+      "a point whose density under the reference mixture exceeds this quantile of the map's "
+      "own points' densities lies on a mapped surface and is not novel (0 disables)");
   }
   void validate() const;
 };

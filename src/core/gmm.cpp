@@ -250,4 +250,41 @@ Gmm GmmFitter::fitFrom(const WeightedPoints& data, const Gmm& init, EmStats* sta
   return gmm;
 }
 
+Gmm GmmFitter::fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* stats) const {
+  checkData(data);
+  EmStats st;
+  const Eigen::VectorXd w = weightVector(data);
+  const double total = w.sum();
+  Gmm gmm = init;
+  if (data.size() == 0 || init.empty() || !(total > 0)) {
+    if (stats) *stats = st;
+    return gmm;
+  }
+  // log N(x_n | k) does not change: compute it once, then iterate on the weights only.
+  Gmm unit = init;
+  for (auto& g : unit.components) g.weight = 1.0;
+  const Eigen::MatrixXd log_density = logWeightedDensities(unit, data.points);
+  Eigen::VectorXd log_pi(gmm.size());
+  double prev = -std::numeric_limits<double>::infinity();
+  for (int it = 0; it < params_.max_iterations; ++it) {
+    for (std::size_t k = 0; k < gmm.size(); ++k)
+      log_pi[k] = gmm.components[k].weight > 0 ? std::log(gmm.components[k].weight)
+                                               : -std::numeric_limits<double>::infinity();
+    Eigen::MatrixXd lp = log_density.colwise() + log_pi;
+    const Eigen::VectorXd lse = logSumExpCols(lp);
+    st.log_likelihood = w.dot(lse) / total;
+    st.iterations = it + 1;
+    if (st.log_likelihood - prev < params_.tolerance) {
+      st.converged = true;
+      break;
+    }
+    prev = st.log_likelihood;
+    for (Eigen::Index n = 0; n < lp.cols(); ++n) lp.col(n) = (lp.col(n).array() - lse[n]).exp();
+    const Eigen::VectorXd nk = lp * w;
+    for (std::size_t k = 0; k < gmm.size(); ++k) gmm.components[k].weight = nk[k] / total;
+  }
+  if (stats) *stats = st;
+  return gmm;
+}
+
 }  // namespace novelty_detection

@@ -38,6 +38,7 @@ void MultiScaleParams::validate() const {
 void GmmParams::validate() const {
   requireRange("gmm/max_components", max_components, 1, 4096);
   requireRange("gmm/points_per_component", points_per_component, 1.0, 1e9);
+  requireRange("gmm/max_fit_points", max_fit_points, 1, 100000000);
   requireRange("gmm/max_iterations", max_iterations, 1, 10000);
   requireRange("gmm/tolerance", tolerance, 0.0, 1.0);
   requireRange("gmm/min_variance_m2", min_variance_m2, 1e-12, 1.0);
@@ -62,6 +63,7 @@ void SegmentationParams::validate() const {
   requireRange("segmentation/min_novelty_distance_m", min_novelty_distance_m, 0.0, 100.0);
   requireRange("segmentation/link_factor", link_factor, 0.1, 100.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
+  requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
 }
 
 void SuperquadricParams::validate() const {
