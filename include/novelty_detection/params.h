@@ -132,6 +132,8 @@ struct SegmentationParams {
   double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
   int min_segment_points = 20;          ///< smaller segments are dropped
   double map_likelihood_quantile = 0.01; ///< points likelier under Gamma are not novel (0: off)
+  bool visibility_check = true;          ///< novel points must lie where the map saw through
+  double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
 
   template <class F>
   void visit(F&& f) {
@@ -147,6 +149,11 @@ struct SegmentationParams {
     f("map_likelihood_quantile", map_likelihood_quantile,
       "a point whose density under the reference mixture exceeds this quantile of the map's "
       "own points' densities lies on a mapped surface and is not novel (0 disables)");
+    f("visibility_check", visibility_check,
+      "a novel point must lie in space the reference sweep saw through (needs the reference "
+      "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin)");
+    f("visibility_angle_deg", visibility_angle_deg,
+      "half-angle of the cone around a ray in which map returns are compared [deg]");
   }
   void validate() const;
 };
