@@ -104,9 +104,9 @@ struct GmmParams {
 /// the stop rule is stated in novelty_selection.h).
 struct SelectionParams {
   std::string ground_distance = "wasserstein";  ///< "wasserstein" or "euclidean"
-  double min_relative_decrease = 0.05;  ///< stop when a removal lowers EMD by less (fraction)
+  double min_relative_decrease = 0.02;  ///< stop when a removal lowers EMD by less (fraction)
   double u_th = 0.0;                    ///< stop when EMD falls below this [m]
-  double u_th_noise_factor = 0.5;       ///< ... or below this times the novelty distance
+  double u_th_noise_factor = 0.1;       ///< ... or below this times the novelty distance
   int max_novel_gaussians = 32;         ///< cap on selected Gaussians
 
   template <class F>
@@ -131,7 +131,7 @@ struct SegmentationParams {
   double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
   double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
   int min_segment_points = 20;          ///< smaller segments are dropped
-  double map_likelihood_quantile = 0.01; ///< points likelier under Gamma are not novel (0: off)
+  double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
   double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
 

@@ -24,7 +24,8 @@ struct ReferenceModel {
   VisibilityIndex visibility;    ///< map points by direction from the reference viewpoint
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
-  double explained_log_density = -std::numeric_limits<double>::infinity();
+  /// +inf when the check is off (no point counts as explained).
+  double explained_log_density = std::numeric_limits<double>::infinity();
 };
 
 namespace {
