@@ -33,6 +33,7 @@ void PreprocessParams::validate() const {
 void MultiScaleParams::validate() const {
   requireRange("multiscale/n_max", n_max, 1, 1000000);
   requireRange("multiscale/sigma_max", sigma_max, 0.0, 1.0 / 3.0);
+  requireRange("multiscale/noise_factor", noise_factor, 0.0, 100.0);
 }
 
 void GmmParams::validate() const {
