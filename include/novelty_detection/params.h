@@ -186,17 +186,20 @@ struct SuperquadricParams {
   bool autodiff = false;            ///< Jets instead of the analytic Jacobian (reference)
   double min_size_m = 0.005;        ///< absolute lower bound of a1, a2, a3 [m]
   double min_size_fraction = 0.05;  ///< sizes >= this fraction of h (no flat-disc collapse)
-  double max_size_factor = 2.0;     ///< sizes <= this multiple of h (no explosion)
+  double max_size_factor = 1.25;    ///< sizes <= this multiple of h (no explosion)
   std::string robust_loss = "none"; ///< "none", "huber" or "cauchy"
   double robust_loss_scale = 0.2;   ///< loss scale as a fraction of sqrt(a1 a2 a3)
   int screening_points = 64;        ///< points used to compare the initial guesses
   int screening_iterations = 5;     ///< LM iterations per initial guess while comparing
-  int max_fit_points = 2000;        ///< a segment's fine points are subsampled to this
+  int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
+  int split_max_points = 2400;      ///< split and merge works on at most this many points
   int split_min_points = 40;        ///< a part is not split into halves smaller than this
-  int split_fit_points = 300;       ///< parts are subsampled to this while splitting/merging
+  int split_fit_points = 100;       ///< parts are subsampled to this while splitting/merging
   double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
-  double merge_tolerance = 0.25;    ///< merge when merged error <= (1 + tol) * parts' mean
+  double split_force_factor = 1.5;  ///< split regardless of gain above this x exact error
+  double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
   double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
+  double noise_factor = 2.0;        ///< ... and so are fits within this x estimated noise
   double neighbour_distance_factor = 3.0;  ///< parts touch within this x point spacing
   int max_parts = 8;                ///< cap on superquadrics per segment
 
@@ -225,18 +228,27 @@ struct SuperquadricParams {
       "Levenberg-Marquardt iterations per initial guess while comparing them");
     f("max_fit_points", max_fit_points,
       "a segment's points are deterministically subsampled to at most this many");
+    f("split_max_points", split_max_points,
+      "split and merge works on a deterministic subsample of at most this many points");
     f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
     f("split_fit_points", split_fit_points,
       "parts are subsampled to at most this many points for split and merge fits");
     f("split_gain", split_gain,
-      "split a part when the halves' points-weighted mean radial error is below "
+      "split a part when the halves' points-weighted mean distance is below "
       "split_gain times the part's");
+    f("split_force_factor", split_force_factor,
+      "a part whose mean distance exceeds split_force_factor times the exact-fit level is "
+      "split even if its halves do not fit better");
     f("merge_tolerance", merge_tolerance,
-      "merge two neighbours when the merged fit's mean radial error is at most "
-      "(1 + merge_tolerance) times their points-weighted mean error (or below error_floor_m)");
+      "merge two neighbours when the merged fit is exact, or its mean distance is at most "
+      "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
+      "merge_tolerance) times their sum");
     f("error_floor_m", error_floor_m,
-      "a fit with a smaller mean radial error is exact: it is not split, merges into it are "
+      "a fit with a smaller mean distance to its points is exact: it is not split, merges into it are "
       "allowed [m]");
+    f("noise_factor", noise_factor,
+      "a fit whose mean distance is below noise_factor times the estimated sensor noise "
+      "(local plane RMS) is exact: it is not split, merges into it are allowed");
     f("neighbour_distance_factor", neighbour_distance_factor,
       "two parts are neighbours when their points come closer than this times the median "
       "point spacing");
