@@ -90,7 +90,7 @@ struct GmmParams {
   double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
   int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
   int max_iterations = 30;            ///< EM iteration cap
-  double tolerance = 1e-4;            ///< stop when the mean log-likelihood gains less [nats]
+  double tolerance = 1e-3;            ///< stop when the mean log-likelihood gains less [nats]
   double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
   bool current_from_reference = true; ///< start the current EM from the reference mixture
   int max_extra_components = 16;      ///< extra current Gaussians seeded where the map has none
