@@ -16,19 +16,19 @@ namespace novelty_detection {
 
 /// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
 struct PreprocessParams {
-  int max_points = 2000000;        ///< sweeps larger than this are refused
-  bool outlier_removal = true;     ///< statistical outlier removal (Rusu et al. 2008)
-  int outlier_k = 8;               ///< neighbours for the mean distance
-  double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
-  bool outlier_range_scaled = false;  ///< divide mean distances by the range from the sensor
-  bool ground_removal = true;      ///< RANSAC ground plane removal
-  double ground_distance_m = 0.03; ///< inlier distance to the plane (lower bound)
+  int max_points = 2000000;            ///< sweeps larger than this are refused
+  bool outlier_removal = true;         ///< statistical outlier removal (Rusu et al. 2008)
+  int outlier_k = 8;                   ///< neighbours for the mean distance
+  double outlier_std_mul = 3.0;        ///< reject when mean distance > mu + std_mul * sigma
+  bool outlier_range_scaled = false;   ///< divide mean distances by the range from the sensor
+  bool ground_removal = true;          ///< RANSAC ground plane removal
+  double ground_distance_m = 0.03;     ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
   int ground_max_iterations = 200;     ///< RANSAC iterations
-  double ground_noise_k = 3.0;  ///< threshold = max(ground_distance_m, k * sigma_floor)
-  int ground_sample_points = 4096;       ///< RANSAC scores hypotheses on this many points
-  double ground_min_fraction = 0.05;     ///< a ground plane holds at least this share
-  double ground_lowest_support = 0.3;    ///< lowest plane with >= this * best support wins
+  double ground_noise_k = 3.0;         ///< threshold = max(ground_distance_m, k * sigma_floor)
+  int ground_sample_points = 4096;     ///< RANSAC scores hypotheses on this many points
+  double ground_min_fraction = 0.05;   ///< a ground plane holds at least this share
+  double ground_lowest_support = 0.3;  ///< lowest plane with >= this * best support wins
 
   template <class F>
   void visit(F&& f) {
@@ -67,9 +67,9 @@ struct PreprocessParams {
 /// outlier removal), 2-3x denser near edges than on walls. The noise-aware rule keeps that
 /// behaviour on noisy sensors, where Pauly's fixed sigma_max reads the noise as curvature.
 struct MultiScaleParams {
-  int n_max = 24;           ///< split clusters larger than this
-  double sigma_max = 0.01;  ///< split clusters whose surface variation exceeds this
-  bool noise_aware = true;  ///< discount the estimated sensor noise from the variation
+  int n_max = 24;             ///< split clusters larger than this
+  double sigma_max = 0.01;    ///< split clusters whose surface variation exceeds this
+  bool noise_aware = true;    ///< discount the estimated sensor noise from the variation
   double noise_factor = 2.0;  ///< variance discounted = noise_factor * estimated variance
 
   template <class F>
