@@ -202,13 +202,13 @@ struct SuperquadricParams {
   int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
   int split_max_points = 2400;      ///< split and merge works on at most this many points
   int split_min_points = 40;        ///< a part is not split into halves smaller than this
-  int split_fit_points = 100;       ///< parts are subsampled to this while splitting/merging
+  int split_fit_points = 80;        ///< parts are subsampled to this while splitting/merging
   double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
-  double split_force_factor = 1.5;  ///< split regardless of gain above this x exact error
+  double split_force_factor = 1.25; ///< split regardless of gain above this x exact error
   double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
   double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
-  double noise_factor = 2.0;        ///< ... and so are fits within this x estimated noise
-  double neighbour_distance_factor = 3.0;  ///< parts touch within this x point spacing
+  double noise_factor = 1.5;        ///< ... and so are fits within this x estimated noise
+  double neighbour_distance_factor = 1.0;  ///< parts touch within this x neighbourhood radius
   int max_parts = 8;                ///< cap on superquadrics per segment
 
   template <class F>
@@ -258,8 +258,8 @@ struct SuperquadricParams {
       "a fit whose mean distance is below noise_factor times the estimated sensor noise "
       "(local plane RMS) is exact: it is not split, merges into it are allowed");
     f("neighbour_distance_factor", neighbour_distance_factor,
-      "two parts are neighbours when their points come closer than this times the median "
-      "point spacing");
+      "two parts are neighbours when their points come closer than this times the radius of a "
+      "typical two-dimensional 12-point neighbourhood");
     f("max_parts", max_parts, "maximum number of superquadrics per segment");
   }
   void validate() const;
