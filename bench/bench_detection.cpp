@@ -48,8 +48,8 @@ void BM_Em(benchmark::State& state) {
   d.points.resize(3, n);
   for (int i = 0; i < n; ++i) {
     const Gaussian& c = truth.components[i % 3];
-    d.points.col(i) = c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) *
-                                   Eigen::Vector3d(g(rng), g(rng), g(rng));
+    d.points.col(i) =
+        c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) * Eigen::Vector3d(g(rng), g(rng), g(rng));
   }
   GmmParams p;
   p.min_variance_m2 = 1e-6;
