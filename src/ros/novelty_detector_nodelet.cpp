@@ -2,19 +2,430 @@
 
 #include <pluginlib/class_list_macros.hpp>
 #include <std_msgs/String.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <sstream>
+
+#include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/result_messages.h"
+#include "novelty_detection/ros/ros_params.h"
 
 namespace novelty_detection {
+namespace {
+
+constexpr double kWarnPeriodS = 5.0;  // throttle period of repeated warnings
+
+const char* reasonName(tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  switch (reason) {
+    case tf2_ros::filter_failure_reasons::OutTheBack:
+      return "the sweep is older than the transform buffer";
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+      return "the sweep has an empty frame_id";
+    default:
+      return "no transform arrived before the queue overflowed";
+  }
+}
+
+/// Box of the finite points; false when there is none.
+bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
+  lo.setConstant(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  bool any = false;
+  for (const auto& p : cloud) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    const Eigen::Vector3d v(p.x, p.y, p.z);
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+    any = true;
+  }
+  return any;
+}
+
+}  // namespace
 
 NoveltyDetectorNodelet::NoveltyDetectorNodelet() = default;
-NoveltyDetectorNodelet::~NoveltyDetectorNodelet() = default;
+
+NoveltyDetectorNodelet::~NoveltyDetectorNodelet() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_ = true;
+  }
+  queue_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  // The filter calls back into this object: stop it before the rest goes away.
+  tf_filter_.reset();
+  input_sub_.shutdown();
+}
+
+void NoveltyDetectorNodelet::publishStatus(const std::string& status) {
+  std_msgs::String msg;
+  msg.data = status;
+  status_pub_.publish(msg);
+}
 
 void NoveltyDetectorNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   status_pub_ = pnh.advertise<std_msgs::String>("status", 1, true);
-  std_msgs::String msg;
-  msg.data = "ready";
-  status_pub_.publish(msg);
-  NODELET_INFO("novelty detector started");
+
+  // Parameters: the same names as config/default.yaml (~group/name), defaults from the
+  // core's structs; an invalid value refuses to start.
+  try {
+    params_ = loadRosParams(pnh);
+    node_params_ = loadNodeParams(pnh);
+    reference_ = std::make_unique<TiledReference>(
+        params_, node_params_.tile_size_m, static_cast<std::size_t>(node_params_.tile_cache_size));
+  } catch (const std::exception& e) {
+    params_error_ = e.what();
+    NODELET_FATAL("novelty detector refuses to start: %s", e.what());
+    publishStatus(std::string("error: invalid parameters: ") + e.what());
+    return;
+  }
+
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+
+  novelty_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("novelty_cloud", 1);
+  labelled_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("labelled_cloud", 1);
+  superquadrics_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("superquadrics", 1, true);
+  gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
+  novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
+
+  capture_srv_ = pnh.advertiseService("capture_reference",
+                                      &NoveltyDetectorNodelet::onCaptureReference, this);
+  set_srv_ = pnh.advertiseService("set_reference", &NoveltyDetectorNodelet::onSetReference, this);
+  save_srv_ =
+      pnh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
+  detect_srv_ = pnh.advertiseService("detect", &NoveltyDetectorNodelet::onDetect, this);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+  diagnostics_->setHardwareID("none");
+  diagnostics_->add("novelty detector", this, &NoveltyDetectorNodelet::diagnose);
+  diagnostics_timer_ = pnh.createWallTimer(
+      ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+
+  // The worker loads the reference file (possibly large) so that onInit never blocks.
+  worker_ = std::thread(&NoveltyDetectorNodelet::workerLoop, this);
+
+  tf_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(
+      *tf_buffer_, node_params_.fixed_frame, node_params_.input_queue_size, nh);
+  tf_filter_->registerCallback(&NoveltyDetectorNodelet::onTransformable, this);
+  tf_filter_->registerFailureCallback(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg,
+             tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+        onTransformFailure(msg, reason);
+      });
+  input_sub_ = pnh.subscribe("input", 2, &NoveltyDetectorNodelet::onInput, this);
+
+  publishStatus("ready");
+  NODELET_INFO("novelty detector ready: fixed frame '%s', input %s",
+               node_params_.fixed_frame.c_str(), input_sub_.getTopic().c_str());
+}
+
+void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  try {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++received_;
+    }
+    // The tf filter waits silently for frames that never come: say so at once.
+    if (!msg->header.frame_id.empty() && !tf_buffer_->_frameExists(msg->header.frame_id)) {
+      NODELET_WARN_THROTTLE(kWarnPeriodS,
+                            "sweep frame '%s' is unknown to tf (yet); it waits for a transform "
+                            "to '%s'",
+                            msg->header.frame_id.c_str(), node_params_.fixed_frame.c_str());
+    }
+    tf_filter_->add(msg);
+  } catch (const std::exception& e) {
+    NODELET_ERROR_THROTTLE(kWarnPeriodS, "sweep refused: %s", e.what());
+  }
+}
+
+void NoveltyDetectorNodelet::onTransformFailure(
+    const sensor_msgs::PointCloud2::ConstPtr& msg,
+    tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++tf_failures_;
+  }
+  NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep from frame '%s' at %.3f dropped: %s (to '%s')",
+                        msg->header.frame_id.c_str(), msg->header.stamp.toSec(),
+                        reasonName(reason), node_params_.fixed_frame.c_str());
+}
+
+void NoveltyDetectorNodelet::onTransformable(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (pending_) {
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++dropped_;  // the newest sweep wins
+    }
+    pending_ = msg;
+  }
+  queue_cv_.notify_one();
+}
+
+void NoveltyDetectorNodelet::workerLoop() {
+  if (!node_params_.reference_file.empty()) loadReferenceFile(node_params_.reference_file);
+  while (true) {
+    sensor_msgs::PointCloud2::ConstPtr msg;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return stop_ || pending_; });
+      if (stop_) return;
+      msg.swap(pending_);
+    }
+    processSweep(msg);
+  }
+}
+
+void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
+  try {
+    const CloudFile file = loadCloudFile(path);
+    reference_->setMap(file.cloud);
+    NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
+  } catch (const std::exception& e) {
+    NODELET_ERROR("cannot use reference file: %s", e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    last_error_ = e.what();
+  }
+}
+
+Cloud NoveltyDetectorNodelet::toFixedFrame(const sensor_msgs::PointCloud2& msg,
+                                           bool wait_for_transform) const {
+  Cloud cloud = fromPointCloud2(msg);
+  const std::string frame =
+      msg.header.frame_id.empty() ? node_params_.fixed_frame : msg.header.frame_id;
+  if (frame == node_params_.fixed_frame) return cloud;
+  std::string why;
+  if (wait_for_transform &&
+      !tf_buffer_->canTransform(node_params_.fixed_frame, frame, msg.header.stamp, &why)) {
+    throw std::runtime_error("no transform from '" + frame + "' to '" +
+                             node_params_.fixed_frame + "': " + why);
+  }
+  const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
+      tf_buffer_->lookupTransform(node_params_.fixed_frame, frame, msg.header.stamp));
+  const Eigen::Isometry3f T = T_fixed_sensor.cast<float>();
+  for (auto& p : cloud) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    p.getVector3fMap() = T * p.getVector3fMap();
+  }
+  return cloud;
+}
+
+Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const ros::Time& stamp) const {
+  Eigen::Vector3d lo, hi;
+  if (!finiteBounds(cloud, lo, hi)) {
+    throw std::invalid_argument("the sweep has no finite point (" +
+                                std::to_string(cloud.size()) + " points)");
+  }
+  // Compare only the part of the map this sweep can see: its extent plus a margin, and
+  // within the sensor's range of its origin when the sensor frame is known.
+  lo.array() -= node_params_.crop_margin_m;
+  hi.array() += node_params_.crop_margin_m;
+  if (!node_params_.sensor_frame.empty()) {
+    try {
+      const auto T = tf_buffer_->lookupTransform(node_params_.fixed_frame,
+                                                 node_params_.sensor_frame, stamp);
+      const Eigen::Vector3d origin(T.transform.translation.x, T.transform.translation.y,
+                                   T.transform.translation.z);
+      const Eigen::Vector3d range = Eigen::Vector3d::Constant(node_params_.sensor_range_m);
+      lo = lo.cwiseMax(origin - range);
+      hi = hi.cwiseMin(origin + range);
+    } catch (const tf2::TransformException& e) {
+      NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor origin, cropping by extent only: %s",
+                            e.what());
+    }
+  }
+  return reference_->pipelineFor(lo, hi)->detect(cloud);
+}
+
+void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Cloud cloud;
+  try {
+    cloud = toFixedFrame(*msg, false);
+    std::size_t finite = 0;
+    for (const auto& p : cloud) {
+      finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+    }
+    if (finite == 0) {
+      throw std::invalid_argument(cloud.empty() ? "the sweep is empty"
+                                                : "the sweep has no finite point (" +
+                                                      std::to_string(cloud.size()) +
+                                                      " points, all NaN/inf)");
+    }
+  } catch (const std::exception& e) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep rejected: %s", e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++rejected_;
+    last_error_ = e.what();
+    return;
+  }
+
+  std_msgs::Header header = msg->header;
+  header.frame_id = node_params_.fixed_frame;
+  if (capture_next_.exchange(false)) {
+    try {
+      reference_->setMap(cloud);
+      NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)",
+                   header.stamp.toSec(), cloud.size());
+    } catch (const std::exception& e) {
+      NODELET_ERROR("capturing the reference failed: %s", e.what());
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++failed_;
+      last_error_ = e.what();
+    }
+    return;
+  }
+  if (!reference_->hasMap()) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS,
+                          "no reference map yet: set ~reference_file or call "
+                          "~capture_reference / ~set_reference");
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++rejected_;
+    last_error_ = "no reference map";
+    return;
+  }
+
+  try {
+    const Result result = detect(cloud, msg->header.stamp);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
+    novelty_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, true));
+    if (labelled_cloud_pub_.getNumSubscribers() > 0) {
+      labelled_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, false));
+    }
+    superquadrics_pub_.publish(superquadricMarkers(result, header));
+    gaussians_pub_.publish(gaussianMarkers(result, header));
+
+    std::size_t novel_points = 0;
+    for (int l : result.labels) novel_points += l > 0;
+    std::ostringstream summary;
+    summary << result.segments.size() << " novelties, " << novel_points << " novel points, "
+            << result.superquadrics.size() << " superquadrics, EMD " << result.emd_before
+            << " -> " << result.emd_after;
+    NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(),
+                  ms);
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++processed_;
+    last_processing_ms_ = ms;
+    max_processing_ms_ = std::max(max_processing_ms_, ms);
+    last_result_ = summary.str();
+  } catch (const std::exception& e) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS, "detection failed on the sweep at %.3f: %s",
+                          header.stamp.toSec(), e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++failed_;
+    last_error_ = e.what();
+  }
+}
+
+bool NoveltyDetectorNodelet::onCaptureReference(std_srvs::Trigger::Request&,
+                                                std_srvs::Trigger::Response& res) {
+  if (!params_error_.empty()) {
+    res.success = false;
+    res.message = "not running: " + params_error_;
+    return true;
+  }
+  capture_next_ = true;
+  res.success = true;
+  res.message = "the next sweep becomes the reference";
+  NODELET_INFO("%s", res.message.c_str());
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
+                                            SetReference::Response& res) {
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    const CloudFile file = loadCloudFile(req.path);
+    reference_->setMap(file.cloud);
+    res.success = true;
+    res.message = "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) +
+                  " points)";
+    NODELET_INFO("%s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("set_reference failed: %s", e.what());
+  }
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
+                                             SaveReference::Response& res) {
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    if (!reference_->hasMap()) throw std::runtime_error("there is no reference to save");
+    const Cloud map = reference_->map();
+    saveCloudAtomic(req.path, map);
+    res.success = true;
+    res.message = "saved " + std::to_string(map.size()) + " points to " + req.path;
+    NODELET_INFO("%s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("save_reference failed: %s", e.what());
+  }
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    if (!reference_->hasMap()) throw std::runtime_error("no reference map set");
+    const Cloud cloud = toFixedFrame(req.cloud, true);
+    const Result result = detect(cloud, req.cloud.header.stamp);
+    std_msgs::Header header = req.cloud.header;
+    header.frame_id = node_params_.fixed_frame;
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    res.novelties = toNoveltyArray(result, header, s);
+    res.labelled_cloud = toLabelledPointCloud2(cloud, result.labels, header, false);
+    res.success = true;
+    res.message = std::to_string(result.segments.size()) + " novelties";
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("detect failed: %s", e.what());
+  }
+  return true;
+}
+
+void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!params_error_.empty()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "invalid parameters");
+  } else if (!reference_->hasMap()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference map");
+  } else if (!last_error_.empty() && processed_ == 0) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_);
+  } else {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+  }
+  stat.add("sweeps received", received_);
+  stat.add("sweeps processed", processed_);
+  stat.add("sweeps dropped (stale)", dropped_);
+  stat.add("sweeps rejected", rejected_);
+  stat.add("detections failed", failed_);
+  stat.add("transform failures", tf_failures_);
+  stat.add("last processing time [ms]", last_processing_ms_);
+  stat.add("max processing time [ms]", max_processing_ms_);
+  stat.add("last result", last_result_);
+  stat.add("last error", last_error_);
+  stat.add("reference points", reference_->mapSize());
+  stat.add("reference models cached", reference_->cachedModels());
+  stat.add("reference models built", reference_->modelsBuilt());
 }
 
 }  // namespace novelty_detection
