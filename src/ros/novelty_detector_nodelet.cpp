@@ -136,11 +136,16 @@ void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& m
       ++received_;
     }
     // The tf filter waits silently for frames that never come: say so at once.
-    if (!msg->header.frame_id.empty() && !tf_buffer_->_frameExists(msg->header.frame_id)) {
-      NODELET_WARN_THROTTLE(kWarnPeriodS,
-                            "sweep frame '%s' is unknown to tf (yet); it waits for a transform "
-                            "to '%s'",
-                            msg->header.frame_id.c_str(), node_params_.fixed_frame.c_str());
+    if (msg->header.frame_id.empty()) {
+      warnThrottled("frame", "sweep has an empty frame_id; it is dropped");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++rejected_;
+      return;
+    }
+    if (!tf_buffer_->_frameExists(msg->header.frame_id)) {
+      warnThrottled("frame", "sweep frame '" + msg->header.frame_id +
+                                 "' is unknown to tf (yet); it waits for a transform to '" +
+                                 node_params_.fixed_frame + "'");
     }
     tf_filter_->add(msg);
   } catch (const std::exception& e) {
@@ -263,7 +268,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
                                                       " points, all NaN/inf)");
     }
   } catch (const std::exception& e) {
-    NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep rejected: %s", e.what());
+    warnThrottled("rejected", std::string("sweep rejected: ") + e.what());
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++rejected_;
     last_error_ = e.what();
@@ -321,8 +326,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     max_processing_ms_ = std::max(max_processing_ms_, ms);
     last_result_ = summary.str();
   } catch (const std::exception& e) {
-    NODELET_WARN_THROTTLE(kWarnPeriodS, "detection failed on the sweep at %.3f: %s",
-                          header.stamp.toSec(), e.what());
+    warnThrottled("failed", std::string("detection failed: ") + e.what());
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++failed_;
     last_error_ = e.what();
@@ -400,6 +404,18 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     NODELET_WARN("detect failed: %s", e.what());
   }
   return true;
+}
+
+void NoveltyDetectorNodelet::warnThrottled(const std::string& category,
+                                           const std::string& text) {
+  const ros::WallTime now = ros::WallTime::now();
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    auto& last = last_warning_[category];
+    if (last.first == text && (now - last.second).toSec() < kWarnPeriodS) return;
+    last = {text, now};
+  }
+  NODELET_WARN("%s", text.c_str());
 }
 
 void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {

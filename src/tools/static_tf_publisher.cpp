@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
+  ros::NodeHandle nh;  // starts the node (ros::Time::now() needs it)
   geometry_msgs::TransformStamped t;
   t.header.stamp = ros::Time::now();
   t.header.frame_id = args[7];

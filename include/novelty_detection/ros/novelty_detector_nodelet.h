@@ -12,6 +12,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -58,6 +59,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   bool onSaveReference(SaveReference::Request& req, SaveReference::Response& res);
   bool onDetect(Detect::Request& req, Detect::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// Warns at most once per period per category, but at once when the text changes, so
+  /// that different problems in a row are all reported.
+  void warnThrottled(const std::string& category, const std::string& text);
 
   NodeParams node_params_;
   Params params_;
@@ -89,6 +93,7 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
               tf_failures_ = 0;
   double last_processing_ms_ = 0.0, max_processing_ms_ = 0.0;
   std::string last_result_ = "none yet", last_error_;
+  std::map<std::string, std::pair<std::string, ros::WallTime>> last_warning_;
 };
 
 }  // namespace novelty_detection
