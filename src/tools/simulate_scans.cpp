@@ -1,7 +1,338 @@
-// simulate_scans: not implemented yet.
-#include <iostream>
+// simulate_scans: writes simulated scene pairs (reference and current sweep of a tilting
+// Hokuyo in a corridor or office, with exact ground truth) as PCD, labels, JSON and a rosbag.
+//
+//   simulate_scans --out DIR [--seed S] [--layout corridor|office] [--lines N]
+//                  [--noise-var V] [--offset DX DY DYAW_DEG] [--novelties K]
+//                  [--kinds box,person,...] [--suite [N]] [--no-bag]
+#include <geometry_msgs/TransformStamped.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
 
-int main() {
-  std::cerr << "simulate_scans: not implemented yet\n";
-  return 1;
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/sim/scene.h"
+#include "novelty_detection/sim/scene_json.h"
+
+namespace fs = std::filesystem;
+using namespace novelty_detection;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+const char* kUsage =
+    "usage: simulate_scans --out DIR [--seed S] [--layout corridor|office] [--lines N]\n"
+    "                      [--noise-var V] [--offset DX DY DYAW_DEG] [--novelties K]\n"
+    "                      [--kinds box,cylinder,sphere,superellipsoid,person,moved_object,door]\n"
+    "                      [--suite [N]] [--no-bag]\n";
+
+struct Options {
+  std::string out;
+  std::uint64_t seed = 1;
+  sim::SceneConfig scene;
+  bool suite = false;
+  int suite_size = 30;
+  bool bag = true;
+  bool lines_set = false, noise_set = false, scene_set = false;
+};
+
+double toDouble(const std::string& flag, const std::string& s) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != s.size() || !std::isfinite(v))
+    throw std::invalid_argument(flag + " expects a number, got '" + s + "'");
+  return v;
+}
+
+long toInt(const std::string& flag, const std::string& s) {
+  std::size_t used = 0;
+  long v = 0;
+  try {
+    v = std::stol(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != s.size()) throw std::invalid_argument(flag + " expects an integer, got '" + s + "'");
+  return v;
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> a(argv + 1, argv + argc);
+  auto value = [&](std::size_t& i) -> const std::string& {
+    if (i + 1 >= a.size() || a[i + 1].rfind("--", 0) == 0)
+      throw std::invalid_argument(a[i] + " needs a value");
+    return a[++i];
+  };
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const std::string& f = a[i];
+    if (f == "--out") {
+      o.out = value(i);
+    } else if (f == "--seed") {
+      const long s = toInt(f, value(i));
+      if (s < 0) throw std::invalid_argument("--seed must be >= 0");
+      o.seed = static_cast<std::uint64_t>(s);
+    } else if (f == "--layout") {
+      o.scene.layout = sim::layoutFromString(value(i));
+      o.scene_set = true;
+    } else if (f == "--lines") {
+      o.scene.laser.lines = static_cast<int>(toInt(f, value(i)));
+      o.lines_set = true;
+    } else if (f == "--noise-var") {
+      o.scene.laser.noise_variance_m2 = toDouble(f, value(i));
+      o.noise_set = true;
+    } else if (f == "--offset") {
+      if (i + 3 >= a.size()) throw std::invalid_argument("--offset needs DX DY DYAW_DEG");
+      const double dx = toDouble(f, a[i + 1]), dy = toDouble(f, a[i + 2]);
+      const double dyaw = toDouble(f, a[i + 3]) * kDeg;
+      o.scene.pose_offset = Eigen::Vector3d(dx, dy, dyaw);
+      i += 3;
+      o.scene_set = true;
+    } else if (f == "--novelties") {
+      o.scene.novelty_count = static_cast<int>(toInt(f, value(i)));
+      o.scene_set = true;
+    } else if (f == "--kinds") {
+      std::stringstream ss(value(i));
+      std::string name;
+      while (std::getline(ss, name, ','))
+        o.scene.novelty_kinds.push_back(sim::noveltyKindFromString(name));
+      o.scene_set = true;
+    } else if (f == "--suite") {
+      o.suite = true;
+      if (i + 1 < a.size() && a[i + 1].rfind("--", 0) != 0) {
+        const long n = toInt(f, a[++i]);
+        if (n < 1 || n > 1000) throw std::invalid_argument("--suite N must lie in [1, 1000]");
+        o.suite_size = static_cast<int>(n);
+      }
+    } else if (f == "--no-bag") {
+      o.bag = false;
+    } else if (f == "--help" || f == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else {
+      throw std::invalid_argument("unknown argument '" + f + "'");
+    }
+  }
+  if (o.out.empty()) throw std::invalid_argument("--out DIR is required");
+  if (o.suite && o.scene_set)
+    throw std::invalid_argument(
+        "--layout, --offset, --novelties and --kinds choose one scene; a --suite varies them");
+  o.scene.seed = o.seed;
+  o.scene.validate();
+  return o;
+}
+
+void writeTextAtomic(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream f(tmp);
+    f << text;
+    if (!f.flush()) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, path);
+}
+
+// ---------------------------------------------------------------------------------------
+// rosbag output: the raw lines as LaserScan with the tilt joint on /tf, and each sweep as
+// one PointCloud2 in the map frame.
+
+geometry_msgs::TransformStamped transformMsg(const Eigen::Isometry3d& T, const ros::Time& stamp,
+                                             const std::string& parent, const std::string& child) {
+  geometry_msgs::TransformStamped m;
+  m.header.stamp = stamp;
+  m.header.frame_id = parent;
+  m.child_frame_id = child;
+  m.transform.translation.x = T.translation().x();
+  m.transform.translation.y = T.translation().y();
+  m.transform.translation.z = T.translation().z();
+  const Eigen::Quaterniond q(T.linear());
+  m.transform.rotation.x = q.x();
+  m.transform.rotation.y = q.y();
+  m.transform.rotation.z = q.z();
+  m.transform.rotation.w = q.w();
+  return m;
+}
+
+sensor_msgs::PointCloud2 cloudMsg(const Cloud& cloud, const ros::Time& stamp) {
+  sensor_msgs::PointCloud2 m;
+  m.header.stamp = stamp;
+  m.header.frame_id = "map";
+  m.height = 1;
+  m.width = static_cast<std::uint32_t>(cloud.size());
+  const char* names[3] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    sensor_msgs::PointField f;
+    f.name = names[k];
+    f.offset = 4 * k;
+    f.datatype = sensor_msgs::PointField::FLOAT32;
+    f.count = 1;
+    m.fields.push_back(f);
+  }
+  m.is_bigendian = false;
+  m.point_step = 12;
+  m.row_step = 12 * m.width;
+  m.is_dense = true;
+  m.data.resize(m.row_step);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const float xyz[3] = {cloud[i].x, cloud[i].y, cloud[i].z};
+    std::memcpy(&m.data[12 * i], xyz, sizeof(xyz));
+  }
+  return m;
+}
+
+void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
+                const std::vector<sim::LaserLine>& lines, const Eigen::Vector3d& base,
+                const Cloud& cloud, double t0, double dt) {
+  Eigen::Isometry3d T_map_base = Eigen::Isometry3d::Identity();
+  T_map_base.translation() = Eigen::Vector3d(base.x(), base.y(), 0.0);
+  T_map_base.linear() = Eigen::AngleAxisd(base.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (std::size_t l = 0; l < lines.size(); ++l) {
+    const ros::Time stamp(t0 + dt * l);
+    tf2_msgs::TFMessage tf;
+    tf.transforms.push_back(transformMsg(T_map_base, stamp, "map", "base_link"));
+    tf.transforms.push_back(transformMsg(sim::baseToLaser(lines[l].tilt_rad, laser.mount_height_m),
+                                         stamp, "base_link", "laser"));
+    bag.write("/tf", stamp, tf);
+    sensor_msgs::LaserScan scan;
+    scan.header.stamp = stamp;
+    scan.header.frame_id = "laser";
+    scan.angle_min = static_cast<float>(laser.beamAngle(0));
+    scan.angle_max = static_cast<float>(laser.beamAngle(laser.beamsPerLine() - 1));
+    scan.angle_increment = static_cast<float>(laser.step_deg * kDeg);
+    scan.scan_time = 0.025f;  // UTM-30LX: 40 Hz
+    scan.time_increment = static_cast<float>(0.025 / (360.0 / laser.step_deg));
+    scan.range_min = static_cast<float>(laser.min_range_m);
+    scan.range_max = static_cast<float>(laser.max_range_m);
+    scan.ranges = lines[l].ranges;  // +inf: no return (REP 117)
+    bag.write("/scan", stamp, scan);
+  }
+  const ros::Time end(t0 + dt * lines.size());
+  bag.write("/sweep", end, cloudMsg(cloud, end));
+}
+
+void writeBag(const fs::path& path, const sim::ScenePair& s) {
+  const fs::path tmp = path.string() + ".tmp";
+  const double t0 = 1000.0;  // fixed, so bags are reproducible
+  const double dt = std::min(0.025, 0.9 / std::max(1, s.config.laser.lines));
+  {
+    rosbag::Bag bag;
+    bag.open(tmp.string(), rosbag::bagmode::Write);
+    writeSweep(bag, s.config.laser, s.reference_lines, s.base_pose_reference, s.reference, t0, dt);
+    writeSweep(bag, s.config.laser, s.current_lines, s.base_pose_current, s.current, t0 + 1.0, dt);
+    bag.close();
+  }
+  fs::rename(tmp, path);
+}
+
+// ---------------------------------------------------------------------------------------
+
+std::string kindsText(const sim::ScenePair& s) {
+  std::string t;
+  for (const auto& o : s.objects) t += (t.empty() ? "" : "+") + sim::toString(o.kind);
+  return t.empty() ? "none" : t;
+}
+
+nlohmann::json writeScene(const fs::path& dir, const sim::SceneConfig& config, bool bag) {
+  fs::create_directories(dir);
+  const sim::ScenePair s = sim::generateScenePair(config);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference, s.T_world_sensor_reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current, s.T_world_sensor_current);
+  std::string labels;
+  labels.reserve(3 * s.current_labels.size());
+  for (int l : s.current_labels) labels += std::to_string(l) + "\n";
+  writeTextAtomic(dir / "gt_labels.txt", labels);
+  const nlohmann::json j = sim::sceneToJson(s);
+  writeTextAtomic(dir / "scene.json", j.dump(2) + "\n");
+  if (bag) writeBag(dir / "scans.bag", s);
+  std::size_t novel = 0;
+  for (int l : s.current_labels) novel += l > 0;
+  if (s.objects.size() < config.novelty_kinds.size() ||
+      (config.novelty_kinds.empty() && static_cast<int>(s.objects.size()) < config.novelty_count))
+    std::cerr << "simulate_scans: warning: " << dir.string()
+              << ": some novelties found no visible place and were left out\n";
+  return {{"dir", dir.filename().string()},
+          {"seed", config.seed},
+          {"layout", sim::toString(config.layout)},
+          {"objects", kindsText(s)},
+          {"object_count", s.objects.size()},
+          {"reference_points", s.reference.size()},
+          {"current_points", s.current.size()},
+          {"novel_points", novel},
+          {"pose_offset",
+           {{"x_m", config.pose_offset.x()},
+            {"y_m", config.pose_offset.y()},
+            {"yaw_deg", config.pose_offset.z() / kDeg}}}};
+}
+
+void printScene(const std::string& prefix, const nlohmann::json& j, double seconds) {
+  std::printf("%s%s: %s, %s, %d ref / %d cur points, %d novel, %.2f s\n", prefix.c_str(),
+              j["dir"].get<std::string>().c_str(), j["layout"].get<std::string>().c_str(),
+              j["objects"].get<std::string>().c_str(), j["reference_points"].get<int>(),
+              j["current_points"].get<int>(), j["novel_points"].get<int>(), seconds);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  try {
+    opt = parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "simulate_scans: " << e.what() << " (see --help)\n";
+    return 2;
+  }
+  try {
+    using Clock = std::chrono::steady_clock;
+    const fs::path out(opt.out);
+    if (!opt.suite) {
+      const auto t = Clock::now();
+      const nlohmann::json j = writeScene(out, opt.scene, opt.bag);
+      printScene("", j, std::chrono::duration<double>(Clock::now() - t).count());
+      std::printf("wrote %s/{ref.pcd,cur.pcd,gt_labels.txt,scene.json%s}\n", out.c_str(),
+                  opt.bag ? ",scans.bag" : "");
+      return 0;
+    }
+    fs::create_directories(out);
+    nlohmann::json scenes = nlohmann::json::array();
+    const auto start = Clock::now();
+    for (int i = 0; i < opt.suite_size; ++i) {
+      sim::SceneConfig c = sim::suiteSceneConfig(i, opt.seed);
+      if (opt.lines_set) c.laser.lines = opt.scene.laser.lines;
+      if (opt.noise_set) c.laser.noise_variance_m2 = opt.scene.laser.noise_variance_m2;
+      char name[32];
+      std::snprintf(name, sizeof(name), "scene_%03d", i);
+      const auto t = Clock::now();
+      scenes.push_back(writeScene(out / name, c, opt.bag));
+      char prefix[32];
+      std::snprintf(prefix, sizeof(prefix), "[%d/%d] ", i + 1, opt.suite_size);
+      printScene(prefix, scenes.back(), std::chrono::duration<double>(Clock::now() - t).count());
+    }
+    const nlohmann::json suite = {
+        {"suite_seed", opt.seed}, {"size", opt.suite_size}, {"bag", opt.bag}, {"scenes", scenes}};
+    writeTextAtomic(out / "suite.json", suite.dump(2) + "\n");
+    std::printf("wrote %d scenes and suite.json to %s in %.1f s\n", opt.suite_size, out.c_str(),
+                std::chrono::duration<double>(Clock::now() - start).count());
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "simulate_scans: " << e.what() << "\n";
+    return 1;
+  }
 }
