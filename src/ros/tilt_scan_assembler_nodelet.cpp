@@ -34,11 +34,13 @@ void TiltScanAssemblerNodelet::onInit() {
   pnh.param("max_sweep_duration", max_sweep_duration_, max_sweep_duration_);
   pnh.param("min_tilt_step_rad", min_tilt_step_rad_, min_tilt_step_rad_);
   pnh.param("min_lines", min_lines_, min_lines_);
+  pnh.param("idle_timeout", idle_timeout_, idle_timeout_);
   if (fixed_frame_.empty() || !(max_sweep_duration_ > 0.0) || min_lines_ < 1 ||
-      !(min_tilt_step_rad_ >= 0.0)) {
+      !(min_tilt_step_rad_ >= 0.0) || !(idle_timeout_ > 0.0)) {
     NODELET_FATAL(
         "tilt scan assembler refuses to start: need a non-empty ~fixed_frame, "
-        "~max_sweep_duration > 0, ~min_lines >= 1 and ~min_tilt_step_rad >= 0");
+        "~max_sweep_duration > 0, ~min_lines >= 1, ~min_tilt_step_rad >= 0 and "
+        "~idle_timeout > 0");
     return;
   }
   if (tilt_parent_frame_.empty()) tilt_parent_frame_ = fixed_frame_;
@@ -57,6 +59,14 @@ void TiltScanAssemblerNodelet::onInit() {
       });
   scan_sub_ = pnh.subscribe<sensor_msgs::LaserScan>(
       "scan", 50, [this](const sensor_msgs::LaserScan::ConstPtr& scan) { tf_filter_->add(scan); });
+  idle_timer_ = pnh.createWallTimer(ros::WallDuration(idle_timeout_ / 4), [this](const ros::WallTimerEvent&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (lines_ > 0 && (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
+      publishSweep();
+      have_pitch_ = false;
+      direction_ = 0;
+    }
+  });
   NODELET_INFO("tilt scan assembler: %s -> %s in '%s'", scan_sub_.getTopic().c_str(),
                sweep_pub_.getTopic().c_str(), fixed_frame_.c_str());
 }
@@ -113,6 +123,7 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
     }
     ++lines_;
     last_stamp_ = stamp;
+    last_line_wall_ = ros::WallTime::now();
   } catch (const std::exception& e) {
     NODELET_WARN_THROTTLE(kWarnPeriodS, "scan line skipped: %s", e.what());
   }

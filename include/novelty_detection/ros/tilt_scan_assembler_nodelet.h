@@ -20,7 +20,8 @@ namespace novelty_detection {
 /// the laser's pose from tf at the line's stamp, and publishes the accumulated lines on
 /// ~sweep (PointCloud2, fixed frame) when the tilt direction reverses (the pitch of the
 /// laser frame relative to ~tilt_parent_frame changes sign of motion) or when the sweep
-/// lasts longer than ~max_sweep_duration seconds.
+/// lasts longer than ~max_sweep_duration seconds, or when no line arrived for ~idle_timeout
+/// wall seconds (the laser stopped, or a bag ended).
 class TiltScanAssemblerNodelet : public nodelet::Nodelet {
  public:
   TiltScanAssemblerNodelet();
@@ -36,12 +37,15 @@ class TiltScanAssemblerNodelet : public nodelet::Nodelet {
   double max_sweep_duration_ = 10.0;    // [s]
   double min_tilt_step_rad_ = 1e-4;     // pitch changes below this are no motion
   int min_lines_ = 5;                   // shorter sweeps are not published
+  double idle_timeout_ = 1.0;           // [s, wall] close the sweep when lines stop coming
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> tf_filter_;
   ros::Subscriber scan_sub_;
   ros::Publisher sweep_pub_;
+  ros::WallTimer idle_timer_;
+  ros::WallTime last_line_wall_;
 
   std::mutex mutex_;
   Cloud sweep_;
