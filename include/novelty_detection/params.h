@@ -106,14 +106,31 @@ struct SegmentationParams {
   void validate() const;
 };
 
-/// Superquadric recovery: LM fit (eq. 3), multi-scale refinement, split and merge.
+/// Superquadric recovery (Sec. V): LM fit of eq. 3, multi-scale refinement, split and merge.
+/// Sizes are bounded relative to h, the largest half extent of the fitted points along their
+/// principal axes, so the bounds scale with the data.
 struct SuperquadricParams {
-  bool enabled = true;          ///< fit superquadrics to segments
-  double epsilon_min = 0.1;     ///< lower bound of e1, e2
-  double epsilon_max = 1.9;     ///< upper bound of e1, e2
-  int max_iterations = 50;      ///< LM iteration cap per fit
-  int split_min_points = 40;    ///< a part is not split into halves smaller than this
-  int max_parts = 8;            ///< cap on superquadrics per segment
+  bool enabled = true;              ///< fit superquadrics to segments
+  double epsilon_min = 0.1;         ///< lower bound of e1, e2
+  double epsilon_max = 1.9;         ///< upper bound of e1, e2
+  int max_iterations = 50;          ///< LM iteration cap per fit
+  double function_tolerance = 1e-6; ///< LM stops when the cost changes relatively less
+  bool autodiff = false;            ///< Jets instead of the analytic Jacobian (reference)
+  double min_size_m = 0.005;        ///< absolute lower bound of a1, a2, a3 [m]
+  double min_size_fraction = 0.05;  ///< sizes >= this fraction of h (no flat-disc collapse)
+  double max_size_factor = 2.0;     ///< sizes <= this multiple of h (no explosion)
+  std::string robust_loss = "none"; ///< "none", "huber" or "cauchy"
+  double robust_loss_scale = 0.2;   ///< loss scale as a fraction of sqrt(a1 a2 a3)
+  int screening_points = 64;        ///< points used to compare the initial guesses
+  int screening_iterations = 5;     ///< LM iterations per initial guess while comparing
+  int max_fit_points = 2000;        ///< a segment's fine points are subsampled to this
+  int split_min_points = 40;        ///< a part is not split into halves smaller than this
+  int split_fit_points = 300;       ///< parts are subsampled to this while splitting/merging
+  double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
+  double merge_tolerance = 0.25;    ///< merge when merged error <= (1 + tol) * parts' mean
+  double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
+  double neighbour_distance_factor = 3.0;  ///< parts touch within this x point spacing
+  int max_parts = 8;                ///< cap on superquadrics per segment
 
   template <class F>
   void visit(F&& f) {
@@ -121,7 +138,40 @@ struct SuperquadricParams {
     f("epsilon_min", epsilon_min, "lower bound of the shape exponents e1, e2");
     f("epsilon_max", epsilon_max, "upper bound of the shape exponents e1, e2");
     f("max_iterations", max_iterations, "Levenberg-Marquardt iteration cap per fit");
+    f("function_tolerance", function_tolerance,
+      "Levenberg-Marquardt stops when the cost changes relatively less than this");
+    f("autodiff", autodiff,
+      "use automatic differentiation instead of the (equal, faster) analytic Jacobian");
+    f("min_size_m", min_size_m, "absolute lower bound of the half sizes a1, a2, a3 [m]");
+    f("min_size_fraction", min_size_fraction,
+      "half sizes are at least this fraction of the points' largest half extent");
+    f("max_size_factor", max_size_factor,
+      "half sizes (and the centre's offset) are at most this multiple of the largest half "
+      "extent");
+    f("robust_loss", robust_loss, "robust loss on eq. 3's residuals: none, huber or cauchy");
+    f("robust_loss_scale", robust_loss_scale,
+      "robust loss scale as a fraction of sqrt(a1 a2 a3) of the start model");
+    f("screening_points", screening_points,
+      "points used to compare the initial guesses of a fit");
+    f("screening_iterations", screening_iterations,
+      "Levenberg-Marquardt iterations per initial guess while comparing them");
+    f("max_fit_points", max_fit_points,
+      "a segment's points are deterministically subsampled to at most this many");
     f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
+    f("split_fit_points", split_fit_points,
+      "parts are subsampled to at most this many points for split and merge fits");
+    f("split_gain", split_gain,
+      "split a part when the halves' points-weighted mean radial error is below "
+      "split_gain times the part's");
+    f("merge_tolerance", merge_tolerance,
+      "merge two neighbours when the merged fit's mean radial error is at most "
+      "(1 + merge_tolerance) times their points-weighted mean error (or below error_floor_m)");
+    f("error_floor_m", error_floor_m,
+      "a fit with a smaller mean radial error is exact: it is not split, merges into it are "
+      "allowed [m]");
+    f("neighbour_distance_factor", neighbour_distance_factor,
+      "two parts are neighbours when their points come closer than this times the median "
+      "point spacing");
     f("max_parts", max_parts, "maximum number of superquadrics per segment");
   }
   void validate() const;

@@ -61,7 +61,24 @@ void SuperquadricParams::validate() const {
     throw std::invalid_argument("parameter superquadric/epsilon_min must be below epsilon_max");
   }
   requireRange("superquadric/max_iterations", max_iterations, 1, 10000);
+  requireRange("superquadric/function_tolerance", function_tolerance, 0.0, 1.0);
+  requireRange("superquadric/min_size_m", min_size_m, 1e-6, 100.0);
+  requireRange("superquadric/min_size_fraction", min_size_fraction, 0.0, 1.0);
+  requireRange("superquadric/max_size_factor", max_size_factor, 1.0, 100.0);
+  if (robust_loss != "none" && robust_loss != "huber" && robust_loss != "cauchy") {
+    throw std::invalid_argument("parameter superquadric/robust_loss = '" + robust_loss +
+                                "' must be 'none', 'huber' or 'cauchy'");
+  }
+  requireRange("superquadric/robust_loss_scale", robust_loss_scale, 1e-6, 100.0);
+  requireRange("superquadric/screening_points", screening_points, 11, 100000000);
+  requireRange("superquadric/screening_iterations", screening_iterations, 0, 10000);
+  requireRange("superquadric/max_fit_points", max_fit_points, 11, 100000000);
   requireRange("superquadric/split_min_points", split_min_points, 4, 100000000);
+  requireRange("superquadric/split_fit_points", split_fit_points, 11, 100000000);
+  requireRange("superquadric/split_gain", split_gain, 0.0, 1.0);
+  requireRange("superquadric/merge_tolerance", merge_tolerance, 0.0, 10.0);
+  requireRange("superquadric/error_floor_m", error_floor_m, 0.0, 10.0);
+  requireRange("superquadric/neighbour_distance_factor", neighbour_distance_factor, 0.5, 100.0);
   requireRange("superquadric/max_parts", max_parts, 1, 1024);
 }
 
