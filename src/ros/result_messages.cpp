@@ -118,7 +118,6 @@ visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
       if (!v.allFinite()) continue;
       m.points.push_back(toPoint(v));
     }
-    m.points.resize(m.points.size() - m.points.size() % 3);
     if (!m.points.empty()) out.markers.push_back(m);
   }
   return out;

@@ -1,4 +1,4 @@
-// Superquadric meshes are closed and wound outwards; the tiled reference caches models.
+// Superquadric marker meshes are closed and wound outwards (rviz shades by winding); the tiled reference caches models.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -28,7 +28,7 @@ TEST(SuperquadricMesh, EllipsoidVolumeAndOutwardWinding) {
   sq.e1 = sq.e2 = 1.0;
   sq.euler = Eigen::Vector3d(0.4, 0.7, -0.2);
   sq.position = Eigen::Vector3d(1.0, -2.0, 0.5);
-  const auto tris = superquadricTriangles(sq, 48, 96);
+  const auto tris = superquadricTriangles(sq, 24);
   ASSERT_EQ(tris.size() % 3, 0u);
   const double exact = 4.0 / 3.0 * M_PI * 0.3 * 0.2 * 0.5;
   EXPECT_NEAR(signedVolume(tris), exact, 0.01 * exact);
@@ -38,7 +38,7 @@ TEST(SuperquadricMesh, BoxLikeShapeIsClosedAndOutward) {
   Superquadric sq;
   sq.a = Eigen::Vector3d(0.5, 0.4, 0.3);
   sq.e1 = sq.e2 = 0.1;  // nearly a box of volume 8 a1 a2 a3
-  const auto tris = superquadricTriangles(sq, 64, 128);
+  const auto tris = superquadricTriangles(sq, 16);
   const double box = 8 * 0.5 * 0.4 * 0.3;
   const double v = signedVolume(tris);
   EXPECT_GT(v, 0.9 * box);

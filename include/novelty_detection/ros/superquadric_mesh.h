@@ -1,4 +1,4 @@
-// A closed triangle mesh of a superquadric surface, for display.
+// Triangle soup of a superquadric surface, as rviz's TRIANGLE_LIST wants it.
 #pragma once
 
 #include <Eigen/Core>
@@ -9,14 +9,9 @@
 
 namespace novelty_detection {
 
-/// Triangles (three vertices each, consecutive) of the superellipsoid surface of eq. 2
-/// sampled on its parametric form
-///   x = a1 C(eta,e1) C(w,e2), y = a2 C(eta,e1) S(w,e2), z = a3 S(eta,e1),
-/// C(t,e) = sgn(cos t)|cos t|^e, S(t,e) = sgn(sin t)|sin t|^e, eta in [-pi/2, pi/2],
-/// w in [-pi, pi), with `rings` steps in eta and `segments` steps in w, then moved to the
-/// fixed frame (R * p + position). The mesh is closed and every triangle is wound
-/// counter-clockwise seen from outside (rviz shades TRIANGLE_LIST by that winding).
-std::vector<Eigen::Vector3d> superquadricTriangles(const Superquadric& sq, int rings = 16,
-                                                   int segments = 24);
+/// Triangles (three consecutive vertices each, fixed frame) of the core's closed mesh
+/// (novelty_detection::triangleMesh, counter-clockwise seen from outside: rviz shades
+/// TRIANGLE_LIST by that winding). Triangles with a non-finite vertex are left out.
+std::vector<Eigen::Vector3d> superquadricTriangles(const Superquadric& sq, int resolution = 8);
 
 }  // namespace novelty_detection
