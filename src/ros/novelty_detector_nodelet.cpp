@@ -225,7 +225,8 @@ Cloud NoveltyDetectorNodelet::toFixedFrame(const sensor_msgs::PointCloud2& msg,
   return cloud;
 }
 
-Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const ros::Time& stamp) const {
+Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& cloud_frame,
+                                      const ros::Time& stamp) const {
   Eigen::Vector3d lo, hi;
   if (!finiteBounds(cloud, lo, hi)) {
     throw std::invalid_argument("the sweep has no finite point (" +
@@ -235,10 +236,13 @@ Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const ros::Time& stamp
   // within the sensor's range of its origin when the sensor frame is known.
   lo.array() -= node_params_.crop_margin_m;
   hi.array() += node_params_.crop_margin_m;
-  if (!node_params_.sensor_frame.empty()) {
+  // The sensor sits at ~sensor_frame, or else at the origin of the cloud's own frame when
+  // that is not the fixed frame (a sweep in the laser frame).
+  const std::string sensor_frame =
+      node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
+  if (!sensor_frame.empty() && sensor_frame != node_params_.fixed_frame) {
     try {
-      const auto T = tf_buffer_->lookupTransform(node_params_.fixed_frame,
-                                                 node_params_.sensor_frame, stamp);
+      const auto T = tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp);
       const Eigen::Vector3d origin(T.transform.translation.x, T.transform.translation.y,
                                    T.transform.translation.z);
       const Eigen::Vector3d range = Eigen::Vector3d::Constant(node_params_.sensor_range_m);
@@ -301,7 +305,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   }
 
   try {
-    const Result result = detect(cloud, msg->header.stamp);
+    const Result result = detect(cloud, msg->header.frame_id, msg->header.stamp);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
@@ -389,7 +393,7 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     if (!reference_->hasMap()) throw std::runtime_error("no reference map set");
     const Cloud cloud = toFixedFrame(req.cloud, true);
-    const Result result = detect(cloud, req.cloud.header.stamp);
+    const Result result = detect(cloud, req.cloud.header.frame_id, req.cloud.header.stamp);
     std_msgs::Header header = req.cloud.header;
     header.frame_id = node_params_.fixed_frame;
     const double s =

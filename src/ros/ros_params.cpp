@@ -58,6 +58,19 @@ void assign(const std::string& key, XmlRpc::XmlRpcValue& v, double& out) {
     out = static_cast<double>(v);
   } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
     out = static_cast<int>(v);
+  } else if (v.getType() == XmlRpc::XmlRpcValue::TypeString) {
+    // rosparam reads YAML 1.1, where `1e-06` (no dot) is a string, while YAML 1.2 and
+    // yaml-cpp read it as a number: accept a string that is entirely a finite number.
+    const std::string text = static_cast<std::string>(v);
+    std::size_t used = 0;
+    double d = 0.0;
+    try {
+      d = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != text.size() || !std::isfinite(d)) wrongType(key, "a number", v);
+    out = d;
   } else {
     wrongType(key, "a number", v);
   }

@@ -13,7 +13,7 @@ struct NodeParams {
   std::string reference_file;       ///< PCD/PLY map loaded at start (fixed frame); "" = none
   double tile_size_m = 10.0;        ///< reference tile edge; <= 0: one model of the whole map
   double crop_margin_m = 1.0;       ///< map kept around the sweep's extent [m]
-  std::string sensor_frame;         ///< if set, also crop to sensor_range_m around it
+  std::string sensor_frame;         ///< crop to sensor_range_m around it ("": sweep frame)
   double sensor_range_m = 30.0;     ///< sensor range for that crop [m]
   int tile_cache_size = 8;          ///< reference models kept (LRU)
   int input_queue_size = 5;         ///< sweeps waiting for their transform
@@ -27,7 +27,8 @@ struct NodeParams {
       "edge of the reference map tiles [m]; <= 0 models the whole map at once");
     f("crop_margin_m", crop_margin_m, "reference kept around the sweep's extent [m]");
     f("sensor_frame", sensor_frame,
-      "if set, the reference is also cropped to sensor_range_m around this frame's origin");
+      "the reference is also cropped to sensor_range_m around this frame's origin; empty: the "
+      "sweep's own frame when it is not the fixed frame");
     f("sensor_range_m", sensor_range_m, "sensor range for that crop [m]");
     f("tile_cache_size", tile_cache_size, "reference models (sets of tiles) kept in memory");
     f("input_queue_size", input_queue_size, "sweeps queued while waiting for their transform");

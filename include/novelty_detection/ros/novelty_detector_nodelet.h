@@ -50,8 +50,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
 
   /// Converts a message to the fixed frame; throws with a clear message on bad data.
   Cloud toFixedFrame(const sensor_msgs::PointCloud2& msg, bool wait_for_transform) const;
-  /// Runs detection with the reference tiles around `cloud`; throws when impossible.
-  Result detect(const Cloud& cloud, const ros::Time& stamp) const;
+  /// Runs detection (cloud in the fixed frame, sensed in `cloud_frame`) with the reference
+  /// tiles around it; throws when impossible.
+  Result detect(const Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
   void loadReferenceFile(const std::string& path);
 
   bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
