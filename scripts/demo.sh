@@ -9,14 +9,18 @@ bash "$REPO/scripts/build.sh"
 BIN="$WS/devel/lib/novelty_detection"
 OUT="${NOVELTY_DEMO_OUT:-$REPO/out/demo}"
 mkdir -p "$OUT"
-log "simulating a reference and a current sweep of a corridor with a new object"
-"$BIN/simulate_scans" --out "$OUT/scene" --seed 1
-log "outputs in $OUT/scene"
+log "simulating a reference and a current sweep of a corridor with two new objects"
+"$BIN/simulate_scans" --out "$OUT/scene" --seed 1 --novelties 2
+log "outputs in $OUT/scene:"
+log "  ref.pcd, cur.pcd   the two sweeps (binary PCD, world frame, VIEWPOINT = sensor pose)"
+log "  gt_labels.txt      one label per point of cur.pcd (0 static, k > 0 changed object k)"
+log "  scene.json         the changed objects with their true superquadrics, sensor poses"
+log "  scans.bag          /scan (LaserScan lines), /tf (tilt joint), /sweep (PointCloud2)"
 ls -l "$OUT/scene"
 
 # The bag holds the reference sweep, then the current one (/sweep in map, /scan, /tf).
 # The detector compares both with ref.pcd: the first should show nothing, the second the
-# inserted object.
+# inserted objects.
 log "replaying $OUT/scene/scans.bag through the detector nodelet (reference: ref.pcd)"
 source_devel
 roslaunch novelty_detection replay.launch bag:="$OUT/scene/scans.bag" \

@@ -21,9 +21,13 @@ struct PreprocessParams {
   int outlier_k = 8;               ///< neighbours for the mean distance
   double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
   bool ground_removal = true;      ///< RANSAC ground plane removal
-  double ground_distance_m = 0.03; ///< inlier distance to the plane
+  double ground_distance_m = 0.03; ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
   int ground_max_iterations = 200;     ///< RANSAC iterations
+  double ground_noise_k = 3.0;  ///< threshold = max(ground_distance_m, k * sigma_floor)
+  int ground_sample_points = 4096;       ///< RANSAC scores hypotheses on this many points
+  double ground_min_fraction = 0.05;     ///< a ground plane holds at least this share
+  double ground_lowest_support = 0.3;    ///< lowest plane with >= this * best support wins
 
   template <class F>
   void visit(F&& f) {
@@ -37,6 +41,16 @@ struct PreprocessParams {
     f("ground_max_angle_deg", ground_max_angle_deg,
       "max angle between the ground normal and the fixed frame's +z [deg]");
     f("ground_max_iterations", ground_max_iterations, "RANSAC iterations for the ground plane");
+    f("ground_noise_k", ground_noise_k,
+      "ground inliers lie within max(ground_distance_m, ground_noise_k * sigma) of the plane, "
+      "sigma the floor's noise estimated robustly (MAD) from the data");
+    f("ground_sample_points", ground_sample_points,
+      "RANSAC scores plane hypotheses on a random subset of this many points");
+    f("ground_min_fraction", ground_min_fraction,
+      "no ground is removed unless the plane holds at least this fraction of the points");
+    f("ground_lowest_support", ground_lowest_support,
+      "of the near-horizontal planes holding at least this fraction of the best one's "
+      "support, the lowest is the ground (not a table top or the ceiling)");
   }
   void validate() const;
 };
@@ -54,30 +68,45 @@ struct MultiScaleParams {
   void validate() const;
 };
 
-/// Gaussian mixture fitting by EM.
+/// Gaussian mixture fitting by EM (paper Sec. IV-B; rules in gmm.h).
 struct GmmParams {
-  int max_components = 64;        ///< cap on the number of Gaussians
-  int max_iterations = 50;        ///< EM iteration cap
-  double tolerance = 1e-4;        ///< stop when the mean log-likelihood gains less
-  double min_variance_m2 = 1e-4;  ///< added to covariance diagonals (planar clusters)
-  int seed = 42;                  ///< RNG seed (determinism)
+  int max_components = 64;            ///< cap on the number of Gaussians (the paper's speed cap)
+  double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
+  int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
+  int max_iterations = 30;            ///< EM iteration cap
+  double tolerance = 1e-4;            ///< stop when the mean log-likelihood gains less [nats]
+  double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
+  bool current_from_reference = true; ///< start the current EM from the reference mixture
+  int max_extra_components = 16;      ///< extra current Gaussians seeded where the map has none
+  int seed = 42;                      ///< RNG seed (determinism)
 
   template <class F>
   void visit(F&& f) {
     f("max_components", max_components, "maximum number of Gaussians per mixture");
+    f("points_per_component", points_per_component,
+      "number of Gaussians = clamp(ceil(points / points_per_component), 1, max_components)");
+    f("max_fit_points", max_fit_points,
+      "EM is fitted on the multi-scale cut, coarsened until it has about this many clusters");
     f("max_iterations", max_iterations, "EM iteration cap");
     f("tolerance", tolerance, "EM stops when the mean log-likelihood gains less than this");
     f("min_variance_m2", min_variance_m2, "covariance regularisation added to the diagonal [m^2]");
+    f("current_from_reference", current_from_reference,
+      "start EM on the current sweep from the reference mixture plus Gaussians seeded on "
+      "points far from the map (else k-means++ from scratch)");
+    f("max_extra_components", max_extra_components,
+      "maximum number of Gaussians seeded on current points far from the reference");
     f("seed", seed, "random seed; results are deterministic for a seed");
   }
   void validate() const;
 };
 
-/// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1).
+/// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1;
+/// the stop rule is stated in novelty_selection.h).
 struct SelectionParams {
   std::string ground_distance = "wasserstein";  ///< "wasserstein" or "euclidean"
   double min_relative_decrease = 0.05;  ///< stop when a removal lowers EMD by less (fraction)
   double u_th = 0.0;                    ///< stop when EMD falls below this [m]
+  double u_th_noise_factor = 0.5;       ///< ... or below this times the novelty distance
   int max_novel_gaussians = 32;         ///< cap on selected Gaussians
 
   template <class F>
@@ -87,6 +116,9 @@ struct SelectionParams {
     f("min_relative_decrease", min_relative_decrease,
       "greedy selection stops when the best removal lowers the EMD by less than this fraction");
     f("u_th", u_th, "greedy selection stops when the EMD falls below this [m]");
+    f("u_th_noise_factor", u_th_noise_factor,
+      "... or below u_th_noise_factor times the data-derived novelty distance "
+      "(segmentation/novelty_distance_factor)");
     f("max_novel_gaussians", max_novel_gaussians, "maximum number of novel Gaussians");
   }
   void validate() const;
@@ -94,14 +126,27 @@ struct SelectionParams {
 
 /// Labelling every input point from the novel Gaussians (ChoosePtfromGaussian).
 struct SegmentationParams {
-  double posterior_threshold = 0.5;  ///< min posterior of the novel Gaussians
-  int min_segment_points = 20;       ///< smaller segments are dropped
+  double posterior_threshold = 0.5;     ///< min posterior of the novel Gaussians
+  double novelty_distance_factor = 6.0; ///< tau = median + factor * 1.4826 MAD of NN distances
+  double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
+  double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
+  int min_segment_points = 20;          ///< smaller segments are dropped
+  double map_likelihood_quantile = 0.01; ///< points likelier under Gamma are not novel (0: off)
 
   template <class F>
   void visit(F&& f) {
     f("posterior_threshold", posterior_threshold,
       "a point is novel when the novel Gaussians' posterior exceeds this");
+    f("novelty_distance_factor", novelty_distance_factor,
+      "a novel point must lie farther from the map than tau = median + factor * 1.4826 * MAD "
+      "of the current-to-reference nearest-neighbour distances");
+    f("min_novelty_distance_m", min_novelty_distance_m, "lower bound of tau [m]");
+    f("link_factor", link_factor,
+      "novel points closer than link_factor * their median 4-NN spacing join one segment");
     f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
+    f("map_likelihood_quantile", map_likelihood_quantile,
+      "a point whose density under the reference mixture exceeds this quantile of the map's "
+      "own points' densities lies on a mapped surface and is not novel (0 disables)");
   }
   void validate() const;
 };

@@ -13,6 +13,8 @@ struct GroundPlane {
   bool found = false;
   Eigen::Vector4d coefficients = Eigen::Vector4d(0, 0, 1, 0);
   Indices inliers;  ///< input-cloud indices on the plane
+  double noise_sigma_m = 0.0;  ///< robust (MAD) scale of the floor's residuals
+  double threshold_m = 0.0;    ///< inlier distance used: max(distance, k * noise_sigma_m)
 };
 
 struct PreprocessResult {
@@ -32,14 +34,35 @@ Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, 
                              Indices* removed = nullptr);
 
 /// RANSAC plane within `max_angle_deg` of horizontal (normal near +z of the cloud's frame)
-/// over `indices`; inliers within `distance_m`.
+/// over `indices`; inliers within `distance_m`. The other settings take PreprocessParams'
+/// defaults (see the overload below, which this calls).
 GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double distance_m,
                             double max_angle_deg, int max_iterations);
 
-/// Chains the steps with one parameter struct.
+/// Ground plane with every ground_* setting of `params`:
+///  1. RANSAC: random triples give plane hypotheses; those tilted more than
+///     ground_max_angle_deg from +z are skipped; each is scored by its inliers within
+///     ground_distance_m on a random subset of ground_sample_points points. Among the
+///     hypotheses with at least ground_lowest_support of the best score the LOWEST wins, so
+///     a ceiling or a table top seen more densely than the floor is not taken for it.
+///  2. Refinement: the normal by least squares and the offset by the median residual of the
+///     points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
+///     point (sigma starts at ground_distance_m). The median is robust to what stands on
+///     the floor (boxes, the foot of walls), which only ever lies above it.
+///  3. Inliers: |distance| <= max(ground_distance_m, ground_noise_k * sigma).
+/// found = false when fewer than 3 points, no hypothesis within the angle, or fewer than
+/// ground_min_fraction of the points on the plane. Deterministic (fixed seed).
+GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
+                            const PreprocessParams& params);
+
+/// Chains the steps with one parameter struct: finite -> sparse outliers -> ground.
 class Preprocessor {
  public:
+  /// Throws std::invalid_argument when params.validate() does.
   explicit Preprocessor(const PreprocessParams& params);
+  /// Throws std::invalid_argument for a cloud larger than max_points. An empty or
+  /// all-NaN cloud gives an empty result; a cloud too small for a step (fewer than 2
+  /// points for outliers, 3 for a plane) passes that step unchanged.
   PreprocessResult compute(const Cloud& cloud) const;
 
  private:

@@ -24,6 +24,10 @@ void PreprocessParams::validate() const {
   requireRange("preprocess/ground_distance_m", ground_distance_m, 1e-4, 1.0);
   requireRange("preprocess/ground_max_angle_deg", ground_max_angle_deg, 0.0, 90.0);
   requireRange("preprocess/ground_max_iterations", ground_max_iterations, 1, 100000);
+  requireRange("preprocess/ground_noise_k", ground_noise_k, 0.0, 100.0);
+  requireRange("preprocess/ground_sample_points", ground_sample_points, 3, 100000000);
+  requireRange("preprocess/ground_min_fraction", ground_min_fraction, 0.0, 1.0);
+  requireRange("preprocess/ground_lowest_support", ground_lowest_support, 0.0, 1.0);
 }
 
 void MultiScaleParams::validate() const {
@@ -33,9 +37,12 @@ void MultiScaleParams::validate() const {
 
 void GmmParams::validate() const {
   requireRange("gmm/max_components", max_components, 1, 4096);
+  requireRange("gmm/points_per_component", points_per_component, 1.0, 1e9);
+  requireRange("gmm/max_fit_points", max_fit_points, 1, 100000000);
   requireRange("gmm/max_iterations", max_iterations, 1, 10000);
   requireRange("gmm/tolerance", tolerance, 0.0, 1.0);
   requireRange("gmm/min_variance_m2", min_variance_m2, 1e-12, 1.0);
+  requireRange("gmm/max_extra_components", max_extra_components, 0, 4096);
   requireRange("gmm/seed", seed, 0, 2147483647);
 }
 
@@ -46,12 +53,17 @@ void SelectionParams::validate() const {
   }
   requireRange("selection/min_relative_decrease", min_relative_decrease, 0.0, 1.0);
   requireRange("selection/u_th", u_th, 0.0, 1000.0);
+  requireRange("selection/u_th_noise_factor", u_th_noise_factor, 0.0, 1000.0);
   requireRange("selection/max_novel_gaussians", max_novel_gaussians, 0, 4096);
 }
 
 void SegmentationParams::validate() const {
   requireRange("segmentation/posterior_threshold", posterior_threshold, 0.0, 1.0);
+  requireRange("segmentation/novelty_distance_factor", novelty_distance_factor, 0.0, 1000.0);
+  requireRange("segmentation/min_novelty_distance_m", min_novelty_distance_m, 0.0, 100.0);
+  requireRange("segmentation/link_factor", link_factor, 0.1, 100.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
+  requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
 }
 
 void SuperquadricParams::validate() const {

@@ -1,7 +1,207 @@
-// evaluate: not implemented yet.
-#include <iostream>
+// evaluate: scores novelty labels against ground truth, for one scene or a whole suite.
+//
+//   evaluate --labels labels.txt --gt gt_labels.txt [--json out.json]
+//   evaluate --suite SUITE_DIR --results RESULTS_DIR [--markdown table.md] [--csv table.csv]
+//            [--json out.json]
+#include <nlohmann/json.hpp>
 
-int main() {
-  std::cerr << "evaluate: not implemented yet\n";
-  return 1;
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "novelty_detection/evaluation.h"
+
+namespace fs = std::filesystem;
+using namespace novelty_detection;
+
+namespace {
+
+const char* kUsage =
+    "usage: evaluate --labels labels.txt --gt gt_labels.txt [--json out.json]\n"
+    "       evaluate --suite SUITE_DIR --results RESULTS_DIR [--markdown table.md]\n"
+    "                [--csv table.csv] [--json out.json]\n";
+
+struct Options {
+  std::string labels, gt, suite, results, json, markdown, csv;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> a(argv + 1, argv + argc);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const std::string& f = a[i];
+    if (f == "--help" || f == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    std::string* target = f == "--labels"     ? &o.labels
+                          : f == "--gt"       ? &o.gt
+                          : f == "--suite"    ? &o.suite
+                          : f == "--results"  ? &o.results
+                          : f == "--json"     ? &o.json
+                          : f == "--markdown" ? &o.markdown
+                          : f == "--csv"      ? &o.csv
+                                              : nullptr;
+    if (!target) throw std::invalid_argument("unknown argument '" + f + "'");
+    if (i + 1 >= a.size() || a[i + 1].rfind("--", 0) == 0)
+      throw std::invalid_argument(f + " needs a value");
+    *target = a[++i];
+  }
+  const bool single = !o.labels.empty() || !o.gt.empty();
+  const bool suite = !o.suite.empty() || !o.results.empty();
+  if (single == suite)
+    throw std::invalid_argument("give either --labels and --gt, or --suite and --results");
+  if (single && (o.labels.empty() || o.gt.empty()))
+    throw std::invalid_argument("--labels and --gt go together");
+  if (suite && (o.suite.empty() || o.results.empty()))
+    throw std::invalid_argument("--suite and --results go together");
+  if (single && (!o.markdown.empty() || !o.csv.empty()))
+    throw std::invalid_argument("--markdown and --csv are for --suite");
+  return o;
+}
+
+void writeText(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f.flush()) throw std::runtime_error(path + ": cannot write");
+}
+
+nlohmann::json toJson(const SceneScore& s) {
+  nlohmann::json objects = nlohmann::json::array(), segments = nlohmann::json::array();
+  for (const auto& o : s.objects)
+    objects.push_back({{"id", o.id},
+                       {"points", o.points},
+                       {"best_segment", o.best_segment},
+                       {"best_iou", o.best_iou},
+                       {"found", o.found}});
+  for (const auto& g : s.segments)
+    segments.push_back({{"id", g.id},
+                        {"points", g.points},
+                        {"novel_points", g.novel_points},
+                        {"matched_object", g.matched_object},
+                        {"best_iou", g.best_iou},
+                        {"false_segment", g.false_segment}});
+  return {{"points", s.points},
+          {"tp", s.tp},
+          {"fp", s.fp},
+          {"fn", s.fn},
+          {"tn", s.tn},
+          {"precision", s.precision},
+          {"recall", s.recall},
+          {"f1", s.f1},
+          {"iou", s.iou},
+          {"objects_found", s.objects_found},
+          {"objects_total", s.objects.size()},
+          {"false_segments", s.false_segments},
+          {"fragment_segments", s.fragment_segments},
+          {"largest_false_segment", s.largest_false_segment},
+          {"success", s.success},
+          {"objects", objects},
+          {"segments", segments}};
+}
+
+int evaluateOne(const Options& o) {
+  const std::vector<int> gt = readLabelFile(o.gt);
+  const std::vector<int> labels = readLabelFile(o.labels, static_cast<long>(gt.size()));
+  const SceneScore s = scoreLabels(labels, gt);
+  std::printf("points %zu  TP %zu  FP %zu  FN %zu  TN %zu\n", s.points, s.tp, s.fp, s.fn, s.tn);
+  std::printf("precision %.4f  recall %.4f  F1 %.4f  IoU %.4f\n", s.precision, s.recall, s.f1,
+              s.iou);
+  for (const auto& obj : s.objects)
+    std::printf("object %d (%zu points): %s, best segment %d with IoU %.3f\n", obj.id, obj.points,
+                obj.found ? "found" : "missed", obj.best_segment, obj.best_iou);
+  for (const auto& g : s.segments)
+    if (g.matched_object == 0)
+      std::printf("segment %d (%zu points): %s\n", g.id, g.points,
+                  g.false_segment ? "false segment" : "fragment of a changed object");
+  std::printf("objects found %d/%zu, false segments %d (largest %zu points), success: %s\n",
+              s.objects_found, s.objects.size(), s.false_segments, s.largest_false_segment,
+              s.success ? "yes" : "no");
+  if (!o.json.empty()) writeText(o.json, toJson(s).dump(2) + "\n");
+  return 0;
+}
+
+int evaluateSuite(const Options& o) {
+  if (!fs::is_directory(o.suite)) throw std::runtime_error(o.suite + ": not a directory");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(o.suite))
+    if (e.is_directory() && e.path().filename().string().rfind("scene_", 0) == 0 &&
+        fs::exists(e.path() / "gt_labels.txt"))
+      names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  if (names.empty())
+    throw std::runtime_error(o.suite + ": no scene_*/gt_labels.txt (run simulate_scans --suite)");
+
+  std::vector<SuiteEntry> entries;
+  nlohmann::json scenes = nlohmann::json::array();
+  for (const auto& name : names) {
+    SuiteEntry e;
+    e.name = name;
+    const std::vector<int> gt = readLabelFile((fs::path(o.suite) / name / "gt_labels.txt"));
+    const fs::path labels_path = fs::path(o.results) / name / "labels.txt";
+    if (!fs::exists(labels_path)) {
+      e.note = "missing labels.txt";
+    } else {
+      try {
+        e.score = scoreLabels(readLabelFile(labels_path, static_cast<long>(gt.size())), gt);
+        e.has_result = true;
+      } catch (const std::exception& ex) {
+        e.note = ex.what();
+        std::cerr << "evaluate: " << name << " counted as failed: " << ex.what() << "\n";
+      }
+    }
+    if (!e.has_result) e.score = scoreLabels(std::vector<int>(gt.size(), 0), gt);
+    if (!e.has_result) e.score.success = false;
+    nlohmann::json j = toJson(e.score);
+    j["scene"] = name;
+    j["has_result"] = e.has_result;
+    j["note"] = e.note;
+    scenes.push_back(j);
+    entries.push_back(e);
+  }
+  const SuiteSummary m = summarizeSuite(entries);
+  const std::string md = suiteMarkdown(entries, m);
+  std::cout << md;
+  if (!o.markdown.empty()) writeText(o.markdown, md);
+  if (!o.csv.empty()) writeText(o.csv, suiteCsv(entries));
+  if (!o.json.empty()) {
+    const nlohmann::json j = {{"scenes", scenes},
+                              {"summary",
+                               {{"scenes", m.scenes},
+                                {"successes", m.successes},
+                                {"missing", m.missing},
+                                {"success_rate", m.success_rate},
+                                {"mean_precision", m.mean_precision},
+                                {"mean_recall", m.mean_recall},
+                                {"mean_f1", m.mean_f1},
+                                {"mean_iou", m.mean_iou},
+                                {"objects_found", m.objects_found},
+                                {"objects_total", m.objects_total},
+                                {"false_segments", m.false_segments}}}};
+    writeText(o.json, j.dump(2) + "\n");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  try {
+    o = parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "evaluate: " << e.what() << " (see --help)\n";
+    return 2;
+  }
+  try {
+    return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o);
+  } catch (const std::exception& e) {
+    std::cerr << "evaluate: " << e.what() << "\n";
+    return 1;
+  }
 }

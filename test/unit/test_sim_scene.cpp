@@ -28,6 +28,21 @@ double insideOutside(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   return std::pow(x + y, sq.e2 / sq.e1) + z;
 }
 
+// Distance-like residual of a point to a part's surface: |F^(e1/2) - 1| times the smallest
+// size for exact superquadrics (the gauge is homogeneous of degree 1), the largest signed
+// face gap for boxes and cylinders (0 on their surface).
+double surfaceResidual(const ObjectPart& part, const Eigen::Vector3d& p_world) {
+  const Superquadric& sq = part.sq;
+  const Eigen::Vector3d q = sq.rotation().transpose() * (p_world - sq.position);
+  if (part.sq_exact)
+    return std::abs(std::pow(insideOutside(sq, p_world), 0.5 * sq.e1) - 1.0) * sq.a.minCoeff();
+  if (part.shape == "box") return std::abs((q.cwiseAbs() - sq.a).maxCoeff());
+  if (part.shape == "cylinder")
+    return std::abs(std::max(q.head<2>().norm() - sq.a.x(), std::abs(q.z()) - sq.a.z()));
+  ADD_FAILURE() << "unknown shape " << part.shape;
+  return 1e9;
+}
+
 }  // namespace
 
 TEST(SimScene, SameSeedSameScenesOtherSeedOtherScenes) {
@@ -73,13 +88,16 @@ TEST(SimScene, CorridorSweepHasAboutThirtyThousandPointsAndVisibleObjects) {
 }
 
 TEST(SimScene, LabelledPointsLieOnTheirObjectsWithoutNoise) {
+  const std::vector<NoveltyKind> corridor_kinds = {
+      NoveltyKind::kSphere, NoveltyKind::kSuperellipsoid, NoveltyKind::kMovedObject};
+  const std::vector<NoveltyKind> office_kinds = {NoveltyKind::kPerson, NoveltyKind::kCylinder,
+                                                 NoveltyKind::kDoorAngle};
   for (auto layout : {Layout::kCorridor, Layout::kOffice}) {
     SceneConfig c;
     c.seed = 9;
     c.layout = layout;
     c.laser.noise_variance_m2 = 0.0;
-    c.novelty_kinds = {NoveltyKind::kSphere, NoveltyKind::kSuperellipsoid,
-                       NoveltyKind::kMovedObject};
+    c.novelty_kinds = layout == Layout::kCorridor ? corridor_kinds : office_kinds;
     const ScenePair s = generateScenePair(c);
     ASSERT_EQ(s.objects.size(), 3u) << toString(layout);
     const Eigen::Vector3d origin = s.T_world_sensor_current.translation();
@@ -93,28 +111,24 @@ TEST(SimScene, LabelledPointsLieOnTheirObjectsWithoutNoise) {
       EXPECT_EQ(hit->object_id, k);
       EXPECT_NEAR(hit->t, (p - origin).norm(), 1e-4);
       if (k == 0) continue;
+      // On the surface of one of the described parts (float coordinates: ~1e-6 m).
       const ObjectDescription& o = s.objects[k - 1];
-      ASSERT_EQ(o.parts.size(), 1u);
-      const ObjectPart& part = o.parts[0];
-      if (part.sq_exact) {
-        // On the surface F = 1 of the described superquadric (float coordinates).
-        EXPECT_NEAR(insideOutside(part.sq, p), 1.0, 2e-3) << toString(o.kind);
-      } else {
-        // Box: on a face of the described box.
-        const Eigen::Vector3d q = part.sq.rotation().transpose() * (p - part.sq.position);
-        const Eigen::Vector3d gap = (q.cwiseAbs() - part.sq.a);
-        EXPECT_LT(gap.maxCoeff(), 1e-4);
-        EXPECT_GT(gap.maxCoeff(), -1e-4);
-      }
+      double best = 1e9;
+      for (const ObjectPart& part : o.parts) best = std::min(best, surfaceResidual(part, p));
+      EXPECT_LT(best, 1e-4) << toString(o.kind);
       ++checked[k];
     }
     EXPECT_EQ(checked.size(), 3u);
     // Objects stand on the floor: their lowest part touches z = 0.
     for (const auto& o : s.objects) {
-      const auto& sq = o.parts[0].sq;
-      const double bottom = o.kind == NoveltyKind::kSuperellipsoid && sq.euler.y() != 0.0
-                                ? sq.position.z() - sq.a.x()
-                                : sq.position.z() - sq.a.z();
+      if (o.kind == NoveltyKind::kDoorAngle) continue;  // hangs 1 cm above it
+      double bottom = 1e9;
+      for (const auto& part : o.parts) {
+        const auto& sq = part.sq;
+        bottom = std::min(bottom, o.kind == NoveltyKind::kSuperellipsoid && sq.euler.y() != 0.0
+                                      ? sq.position.z() - sq.a.x()
+                                      : sq.position.z() - sq.a.z());
+      }
       EXPECT_NEAR(bottom, 0.0, 1e-9) << toString(o.kind);
     }
   }
@@ -135,6 +149,31 @@ TEST(SimScene, PoseOffsetMovesTheCurrentSensor) {
   EXPECT_NEAR(s.T_world_sensor_reference.translation().z(), c.laser.mount_height_m, 1e-12);
   c.pose_offset = Eigen::Vector3d(2.0, 0, 0);
   EXPECT_THROW(generateScenePair(c), std::invalid_argument);
+}
+
+TEST(SimScene, PoseOffsetIntoAWallIsRefused) {
+  // Offices put the robot 1.0-1.6 m from the wall behind it: a 1 m step back hits the 0.3 m
+  // margin for part of the seeds.
+  int refused = 0, accepted = 0;
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    SceneConfig c;
+    c.seed = seed;
+    c.layout = Layout::kOffice;
+    c.laser.lines = 3;
+    c.novelty_count = 0;
+    c.pose_offset = Eigen::Vector3d(-1.0, 0.0, 0.0);
+    try {
+      const ScenePair s = generateScenePair(c);
+      EXPECT_GE(s.base_pose_current.x(), 0.3);
+      EXPECT_TRUE(s.objects.empty());
+      ++accepted;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("pose_offset"), std::string::npos);
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 0);
+  EXPECT_GT(accepted, 0);
 }
 
 TEST(SimScene, SuiteConfigsAreVariedAndDeterministic) {
@@ -170,4 +209,16 @@ TEST(SimScene, NamesRoundTripAndBadNamesThrow) {
   EXPECT_EQ(layoutFromString("office"), Layout::kOffice);
   EXPECT_THROW(layoutFromString("kitchen"), std::invalid_argument);
   EXPECT_THROW(noveltyKindFromString("cat"), std::invalid_argument);
+}
+
+TEST(SimScene, DefaultSuitePlacesEveryPlannedNovelty) {
+  // The 30 scenes of `simulate_scans --suite 30` (suite seed 1) keep all their novelties,
+  // each with enough points, and all sweeps have about 30k points.
+  for (int i = 0; i < 30; ++i) {
+    const SceneConfig c = suiteSceneConfig(i, 1);
+    const ScenePair s = generateScenePair(c);
+    EXPECT_EQ(s.objects.size(), c.novelty_kinds.size()) << "scene " << i;
+    for (const auto& o : s.objects) EXPECT_GE(o.points, c.min_object_points) << "scene " << i;
+    EXPECT_GT(s.current.size(), 29000u) << "scene " << i;
+  }
 }

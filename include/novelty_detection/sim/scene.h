@@ -55,8 +55,9 @@ struct SceneConfig {
   /// Pose of the current sweep relative to the reference: dx [m], dy [m] in the reference
   /// base frame, dyaw [rad].
   Eigen::Vector3d pose_offset = Eigen::Vector3d::Zero();
-  int min_object_points = 50;       ///< placements giving fewer current points are resampled
-  int max_placement_attempts = 40;  ///< per novelty; a novelty that never fits is left out
+  int min_object_points = 50;          ///< placements giving fewer current points are resampled
+  double max_object_distance_m = 6.0;  ///< novelties stand at most this far from the sensor
+  int max_placement_attempts = 40;     ///< per novelty; a novelty that never fits is left out
 
   /// Throws std::invalid_argument naming the bad field.
   void validate() const;

@@ -56,6 +56,7 @@ Eigen::Vector3d beamDirection(double azimuth_rad, double tilt_rad) {
 
 LaserLine simulateTiltLine(const World& world, const Eigen::Isometry3d& T_world_sensor,
                            const LaserConfig& config, double tilt_rad, Rng& rng) {
+  config.validate();
   const int n = config.beamsPerLine();
   const double sigma = std::sqrt(config.noise_variance_m2);
   LaserLine line;
@@ -101,6 +102,8 @@ TiltScan simulateTiltScan(const World& world, const Eigen::Isometry3d& T_world_s
   scan.cloud.width = static_cast<std::uint32_t>(scan.cloud.size());
   scan.cloud.height = 1;
   scan.cloud.is_dense = true;
+  scan.cloud.sensor_origin_ << T_world_sensor.translation().cast<float>(), 0.0f;
+  scan.cloud.sensor_orientation_ = Eigen::Quaternionf(T_world_sensor.linear().cast<float>());
   return scan;
 }
 

@@ -64,8 +64,9 @@ WallGeom wallOf(const Eigen::Vector2d& mn, const Eigen::Vector2d& mx, int k) {
 
 // Samples a door opening on a wall whose recess does not overlap the others; false if none
 // fits after a few tries.
+// When given, [center_min, center_max] bounds the opening's centre along the wall.
 bool sampleOpening(Rng& rng, int wall, double wall_length, const std::vector<Opening>& existing,
-                   Opening* out) {
+                   Opening* out, double center_min = 0.0, double center_max = kInfinity) {
   for (int attempt = 0; attempt < 30; ++attempt) {
     Opening o;
     o.wall = wall;
@@ -73,8 +74,9 @@ bool sampleOpening(Rng& rng, int wall, double wall_length, const std::vector<Ope
     o.height = uniform(rng, 2.0, 2.2);
     o.recess_depth = uniform(rng, 1.3, 2.5);
     o.recess_width = uniform(rng, 2.0, 3.0);
-    const double s_min = 0.5 * o.recess_width - 0.5 * o.width + 0.05;
-    const double s_max = wall_length - 0.5 * o.recess_width - 0.5 * o.width - 0.05;
+    const double s_min = std::max(0.5 * o.recess_width + 0.05, center_min) - 0.5 * o.width;
+    const double s_max =
+        std::min(wall_length - 0.5 * o.recess_width - 0.05, center_max) - 0.5 * o.width;
     if (s_max <= s_min) return false;
     o.s = uniform(rng, s_min, s_max);
     bool ok = true;
@@ -90,7 +92,7 @@ bool sampleOpening(Rng& rng, int wall, double wall_length, const std::vector<Ope
 
 // Walls with openings, recesses, floor, ceiling, doors and the space kept free before doors.
 void buildShell(BuiltLayout& out, const Eigen::Vector2d& mn, const Eigen::Vector2d& mx, double H,
-                const std::vector<Opening>& openings, Rng& rng) {
+                const std::vector<Opening>& openings, bool doors_open_inward, Rng& rng) {
   out.height = H;
   const Eigen::Vector2d margin(3.0, 3.0);
   addHorizontalQuad(out.static_world, mn - margin, mx + margin, 0.0);
@@ -120,7 +122,7 @@ void buildShell(BuiltLayout& out, const Eigen::Vector2d& mn, const Eigen::Vector
       const bool hinge_at_start = uniform01(rng) < 0.5;
       door.hinge = hinge_at_start ? a : b;
       door.along = hinge_at_start ? g.dir : Eigen::Vector2d(-g.dir);
-      door.into = out_dir;
+      door.into = doors_open_inward ? g.inward : out_dir;
       door.width = o.width - 0.04;
       door.height = o.height - 0.02;
       const double u = uniform01(rng);
@@ -128,9 +130,11 @@ void buildShell(BuiltLayout& out, const Eigen::Vector2d& mn, const Eigen::Vector
       out.doors.push_back(door);
       // Keep the way through the door free.
       Footprint zone;
-      zone.center = 0.5 * (a + b) + g.inward * 0.45;
+      // Inward doors need their swing, outward ones a passage of 0.9 m.
+      const double depth = doors_open_inward ? o.width + 0.1 : 0.9;
+      zone.center = 0.5 * (a + b) + g.inward * (0.5 * depth);
       zone.yaw = std::atan2(g.dir.y(), g.dir.x());
-      zone.half = Eigen::Vector2d(0.5 * o.width + 0.15, 0.45);
+      zone.half = Eigen::Vector2d(0.5 * o.width + 0.15, 0.5 * depth);
       out.obstacles.push_back(zone);
     }
     addVerticalQuad(out.static_world, g.p0 + g.dir * cursor, g.p0 + g.dir * g.length, 0.0, H);
@@ -183,6 +187,7 @@ void addFurnitureAgainstWalls(BuiltLayout& out, const Eigen::Vector2d& mn,
       if (!ok || footprintDistance(fp, sensor) < 0.7) continue;
       out.furniture.push_back(f);
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }
@@ -224,14 +229,23 @@ BuiltLayout buildCorridor(Rng& rng) {
   const double H = uniform(rng, 2.5, 3.0);
   const Eigen::Vector2d mn(0.0, -0.5 * W), mx(L, 0.5 * W);
   std::vector<Opening> openings;
+  // One door 4-8 m down the corridor from its start (where the robot stands), so that a
+  // door change is in view; the others anywhere. Wall 0 runs along +x, wall 2 along -x.
+  {
+    Opening o;
+    const int wall = uniform01(rng) < 0.5 ? 0 : 2;
+    const bool ok = wall == 0 ? sampleOpening(rng, wall, L, openings, &o, 4.0, 8.0)
+                              : sampleOpening(rng, wall, L, openings, &o, L - 8.0, L - 4.0);
+    if (ok) openings.push_back(o);
+  }
   for (int wall : {0, 2}) {
-    const int n = uniformInt(rng, 1, 3);
+    const int n = uniformInt(rng, 0, 2);
     for (int i = 0; i < n; ++i) {
       Opening o;
       if (sampleOpening(rng, wall, L, openings, &o)) openings.push_back(o);
     }
   }
-  buildShell(out, mn, mx, H, openings, rng);
+  buildShell(out, mn, mx, H, openings, /*doors_open_inward=*/false, rng);
   out.base_pose = Eigen::Vector3d(uniform(rng, 1.5, 3.0), uniform(rng, -0.15, 0.15),
                                   uniform(rng, -8.0, 8.0) * kDeg);
   // Pillars half sunk into the side walls, floor to ceiling.
@@ -255,6 +269,7 @@ BuiltLayout buildCorridor(Rng& rng) {
           Eigen::Vector3d(fp.center.x(), fp.center.y(), 0.5 * H), Eigen::Matrix3d::Identity(),
           Eigen::Vector3d(fp.half.x(), fp.half.y(), 0.5 * H)));
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }
@@ -276,7 +291,7 @@ BuiltLayout buildOffice(Rng& rng) {
     Opening o;
     if (sampleOpening(rng, wall, wallOf(mn, mx, wall).length, openings, &o)) openings.push_back(o);
   }
-  buildShell(out, mn, mx, H, openings, rng);
+  buildShell(out, mn, mx, H, openings, /*doors_open_inward=*/true, rng);
   out.base_pose = Eigen::Vector3d(uniform(rng, 1.0, 1.6), 0.5 * Ly + uniform(rng, -0.4, 0.4),
                                   uniform(rng, -15.0, 15.0) * kDeg);
   if (uniform01(rng) < 0.5) {  // a round pillar
@@ -289,6 +304,7 @@ BuiltLayout buildOffice(Rng& rng) {
           std::make_shared<Cylinder>(Eigen::Vector3d(fp.center.x(), fp.center.y(), 0.5 * H),
                                      Eigen::Matrix3d::Identity(), fp.radius, 0.5 * H));
       out.obstacles.push_back(fp);
+      out.solids.push_back(fp);
       break;
     }
   }

@@ -27,7 +27,7 @@ double footprintDistance(const Footprint& f, const Eigen::Vector2d& p);
 struct DoorSpec {
   Eigen::Vector2d hinge = Eigen::Vector2d::Zero();
   Eigen::Vector2d along = Eigen::Vector2d::UnitX();  ///< from hinge across the opening
-  Eigen::Vector2d into = Eigen::Vector2d::UnitY();   ///< the side it opens to (a recess)
+  Eigen::Vector2d into = Eigen::Vector2d::UnitY();   ///< the side it opens to
   double width = 0.86, height = 2.0, thickness = 0.04;
   double angle_rad = 0.0;  ///< reference opening angle
 };
@@ -51,6 +51,7 @@ struct BuiltLayout {
   Eigen::Vector2d free_min = Eigen::Vector2d::Zero();  ///< interior where objects may stand
   Eigen::Vector2d free_max = Eigen::Vector2d::Zero();
   std::vector<Footprint> obstacles;  ///< pillars, furniture, space in front of doors
+  std::vector<Footprint> solids;     ///< pillars and furniture only
   Eigen::Vector3d base_pose = Eigen::Vector3d::Zero();  ///< reference robot x, y, yaw
   double height = 2.7;                                  ///< floor to ceiling [m]
 };

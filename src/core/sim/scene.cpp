@@ -46,13 +46,13 @@ World assemble(const detail::BuiltLayout& layout, const Movables& m,
 // placed objects, off the robot's footprint, and in view of the current sensor.
 bool samplePlacement(Rng& rng, const detail::BuiltLayout& layout, const std::vector<Circle>& placed,
                      const Eigen::Vector3d& base_ref, const Eigen::Vector3d& base_cur, double r,
-                     Eigen::Vector2d* out) {
+                     double max_distance, Eigen::Vector2d* out) {
   const Eigen::Vector2d lo = layout.free_min.array() + r, hi = layout.free_max.array() - r;
   if ((lo.array() >= hi.array()).any()) return false;
   for (int attempt = 0; attempt < 200; ++attempt) {
     const Eigen::Vector2d c(uniform(rng, lo.x(), hi.x()), uniform(rng, lo.y(), hi.y()));
     const Eigen::Vector2d rel = c - base_cur.head<2>();
-    if (rel.norm() > 8.0) continue;
+    if (rel.norm() > max_distance) continue;
     if ((c - base_ref.head<2>()).norm() < r + 0.8 || rel.norm() < r + 0.8) continue;
     const double bearing = std::remainder(std::atan2(rel.y(), rel.x()) - base_cur.z(), 2 * M_PI);
     if (std::abs(bearing) > 120.0 * kDeg) continue;
@@ -132,6 +132,8 @@ void SceneConfig::validate() const {
       std::abs(pose_offset.z()) > M_PI / 4)
     throw std::invalid_argument(
         "SceneConfig: pose_offset must be finite, within 1 m and 45 deg of the reference");
+  if (!(max_object_distance_m >= 2.0))
+    throw std::invalid_argument("SceneConfig: max_object_distance_m must be >= 2");
   if (min_object_points < 1) throw std::invalid_argument("SceneConfig: min_object_points < 1");
   if (max_placement_attempts < 1)
     throw std::invalid_argument("SceneConfig: max_placement_attempts < 1");
@@ -158,6 +160,16 @@ ScenePair generateScenePair(const SceneConfig& config) {
   const Eigen::Vector2d d = Eigen::Rotation2Dd(base_ref.z()) * config.pose_offset.head<2>();
   const Eigen::Vector3d base_cur(base_ref.x() + d.x(), base_ref.y() + d.y(),
                                  base_ref.z() + config.pose_offset.z());
+  // The robot must stand in the room, not in a wall or a piece of furniture.
+  const Eigen::Vector2d base_xy = base_cur.head<2>();
+  bool free = (base_xy.array() > layout.free_min.array() + 0.3).all() &&
+              (base_xy.array() < layout.free_max.array() - 0.3).all();
+  for (const auto& solid : layout.solids)
+    if (detail::footprintDistance(solid, base_xy) < 0.3) free = false;
+  if (!free)
+    throw std::invalid_argument(
+        "SceneConfig: pose_offset puts the current sensor within 0.3 m of a wall or of "
+        "furniture in this layout");
   const Eigen::Isometry3d T_ref = sensorPose(base_ref.x(), base_ref.y(), base_ref.z(), h);
   const Eigen::Isometry3d T_cur = sensorPose(base_cur.x(), base_cur.y(), base_cur.z(), h);
 
@@ -183,17 +195,24 @@ ScenePair generateScenePair(const SceneConfig& config) {
       desc.id = id;
       desc.kind = kind;
       Circle circle{Eigen::Vector2d::Zero(), 0.0};
+      int door_index = -1;
+      double door_ref_angle = 0.0;
       if (kind == NoveltyKind::kDoorAngle) {
         std::vector<int> free_doors;
         for (std::size_t i = 0; i < layout.doors.size(); ++i)
           if (state.door_id[i] == 0) free_doors.push_back(static_cast<int>(i));
         if (free_doors.empty()) break;
         const int di = free_doors[uniformInt(rng, 0, static_cast<int>(free_doors.size()) - 1)];
-        const double ref = state.door_angle[di];
-        // A change of at least 40 deg, inside [0, 90] deg.
-        const double cur = ref < 45.0 * kDeg
-                               ? std::min(90.0 * kDeg, ref + uniform(rng, 40.0, 80.0) * kDeg)
-                               : std::max(0.0, ref - uniform(rng, 40.0, 80.0) * kDeg);
+        // The door's reference state is part of the layout's randomness too: draw both
+        // angles in [0, 90] deg, at least 40 deg apart (some pairs leave the leaf hidden in
+        // its recess; those fail the visibility test and are redrawn).
+        double ref = 0.0, cur = 0.0;
+        do {
+          ref = uniform(rng, 0.0, 90.0) * kDeg;
+          cur = uniform(rng, 0.0, 90.0) * kDeg;
+        } while (std::abs(ref - cur) < 40.0 * kDeg);
+        door_ref_angle = ref;
+        door_index = di;
         state.door_angle[di] = cur;
         state.door_id[di] = id;
         desc.door_angle_reference_rad = ref;
@@ -213,7 +232,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
         desc.reference_pose = Eigen::Vector3d(f.center.x(), f.center.y(), f.yaw);
         circle.radius = f.half.head<2>().norm();
         if (!samplePlacement(rng, layout, placed, base_ref, base_cur, circle.radius,
-                             &circle.center))
+                             config.max_object_distance_m, &circle.center))
           continue;
         f.center = circle.center;
         f.yaw = std::remainder(f.yaw + uniform(rng, -M_PI, M_PI), 2 * M_PI);
@@ -225,7 +244,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
         const detail::ShapeTemplate shape = detail::sampleShape(kind, rng);
         circle.radius = shape.radius;
         if (!samplePlacement(rng, layout, placed, base_ref, base_cur, circle.radius,
-                             &circle.center))
+                             config.max_object_distance_m, &circle.center))
           continue;
         desc.parts = detail::placeParts(shape.parts, circle.center.x(), circle.center.y(),
                                         uniform(rng, -M_PI, M_PI));
@@ -243,6 +262,7 @@ ScenePair generateScenePair(const SceneConfig& config) {
       }
       if (!visible) continue;
       cur_state = state;
+      if (door_index >= 0) ref_state.door_angle[door_index] = door_ref_angle;
       object_prims.push_back(prims);
       objects.push_back(desc);
       if (circle.radius > 0) placed.push_back(circle);

@@ -42,6 +42,7 @@ nlohmann::json sceneToJson(const ScenePair& s) {
                              {"y_m", c.pose_offset.y()},
                              {"yaw_deg", c.pose_offset.z() * kRadToDeg}}},
                            {"min_object_points", c.min_object_points},
+                           {"max_object_distance_m", c.max_object_distance_m},
                            {"laser",
                             {{"fov_deg", c.laser.fov_deg},
                              {"step_deg", c.laser.step_deg},

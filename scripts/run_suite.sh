@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Simulates the evaluation suite (once), runs novelty_detect on every scene and scores it.
+#   scripts/run_suite.sh [N=30] [OUT_DIR=out/suite]
+# Writes OUT_DIR/scenes (simulated, reused when present), OUT_DIR/results/scene_XXX (the
+# detector's output and stderr.log), OUT_DIR/table.md, table.csv and scores.json.
+# Build first (scripts/build.sh). The suite seed is NOVELTY_SUITE_SEED (default 1).
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+N="${1:-30}"
+OUT="${2:-$REPO/out/suite}"
+SEED="${NOVELTY_SUITE_SEED:-1}"
+BIN="$WS/devel/lib/novelty_detection"
+SUITE="$OUT/scenes"
+RESULTS="$OUT/results"
+case "$N" in '' | *[!0-9]*) log "N must be a positive integer, got '$N'"; exit 2 ;; esac
+for tool in simulate_scans evaluate; do
+  [ -x "$BIN/$tool" ] || { log "missing $BIN/$tool: run scripts/build.sh first"; exit 1; }
+done
+
+# Reuse a suite simulated before with the same size and seed.
+if [ -f "$SUITE/suite.json" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&
+  grep -Eq "\"suite_seed\": $SEED,?$" "$SUITE/suite.json"; then
+  log "reusing the simulated suite in $SUITE"
+else
+  rm -rf "$SUITE"
+  log "simulating $N scenes into $SUITE"
+  "$BIN/simulate_scans" --out "$SUITE" --suite "$N" --seed "$SEED" --no-bag
+fi
+
+rc=0
+if [ ! -x "$BIN/novelty_detect" ]; then
+  log "novelty_detect is missing ($BIN/novelty_detect): build the detection CLI first;" \
+    "every scene is scored as failed"
+  rc=1
+else
+  ok=0
+  failed=0
+  total_ms=0
+  for scene in "$SUITE"/scene_*; do
+    name="$(basename "$scene")"
+    mkdir -p "$RESULTS/$name"
+    rm -f "$RESULTS/$name/labels.txt"
+    t0=$(date +%s%N)
+    if "$BIN/novelty_detect" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" \
+      --out "$RESULTS/$name" > "$RESULTS/$name/stdout.log" 2> "$RESULTS/$name/stderr.log"; then
+      ms=$((($(date +%s%N) - t0) / 1000000))
+      total_ms=$((total_ms + ms))
+      ok=$((ok + 1))
+      log "$name: done in $ms ms"
+    else
+      failed=$((failed + 1))
+      log "$name: novelty_detect failed: $(tail -n 1 "$RESULTS/$name/stderr.log")"
+    fi
+  done
+  if [ "$ok" -gt 0 ]; then
+    log "novelty_detect ran on $ok scenes, mean wall time $((total_ms / ok)) ms per scene" \
+      "(process start and file I/O included)"
+  fi
+  if [ "$failed" -gt 0 ]; then
+    log "novelty_detect failed on $failed of $((ok + failed)) scenes (see results/*/stderr.log)"
+    rc=1
+  fi
+fi
+
+mkdir -p "$RESULTS"
+"$BIN/evaluate" --suite "$SUITE" --results "$RESULTS" --markdown "$OUT/table.md" \
+  --csv "$OUT/table.csv" --json "$OUT/scores.json"
+log "tables: $OUT/table.md, $OUT/table.csv, $OUT/scores.json"
+exit $rc

@@ -1,0 +1,102 @@
+// Pre-processing chain (paper Sec. IV-A): finite points -> sparse outlier removal (Rusu et
+// al. 2008) -> ground plane removal (ground_plane.cpp). Indices always refer to the input.
+#include "novelty_detection/preprocess.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <stdexcept>
+#include <string>
+
+#include "detail/knn.h"
+
+namespace novelty_detection {
+
+Indices finiteIndices(const Cloud& cloud) {
+  Indices out;
+  out.reserve(cloud.size());
+  for (int i = 0; i < static_cast<int>(cloud.size()); ++i) {
+    const PointT& p = cloud[i];
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) out.push_back(i);
+  }
+  return out;
+}
+
+Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
+                             Indices* removed) {
+  if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
+  if (!(std_mul >= 0.0)) {
+    throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
+  }
+  if (removed) removed->clear();
+  std::vector<Eigen::Vector3f> pts;
+  Indices valid;  // the finite subset of `indices`; non-finite ones count as removed
+  pts.reserve(indices.size());
+  valid.reserve(indices.size());
+  for (int i : indices) {
+    if (i < 0 || i >= static_cast<int>(cloud.size())) {
+      throw std::invalid_argument("removeSparseOutliers: index " + std::to_string(i) +
+                                  " outside a cloud of " + std::to_string(cloud.size()) +
+                                  " points");
+    }
+    const Eigen::Vector3f p = cloud[i].getVector3fMap();
+    if (p.allFinite()) {
+      pts.push_back(p);
+      valid.push_back(i);
+    } else if (removed) {
+      removed->push_back(i);
+    }
+  }
+  const int n = static_cast<int>(pts.size());
+  if (n < 2) return valid;  // no neighbours, no statistics
+
+  // Rusu et al. 2008: mean distance to the k nearest neighbours; outliers lie beyond
+  // mu + std_mul * sigma of the distribution of those means.
+  const std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  double mu = 0.0;
+  for (double v : mean_dist) mu += v;
+  mu /= n;
+  double var = 0.0;
+  for (double v : mean_dist) var += (v - mu) * (v - mu);
+  const double limit = mu + std_mul * std::sqrt(var / n);
+
+  Indices kept;
+  kept.reserve(n);
+  for (int j = 0; j < n; ++j) {
+    if (mean_dist[j] <= limit) {
+      kept.push_back(valid[j]);
+    } else if (removed) {
+      removed->push_back(valid[j]);
+    }
+  }
+  return kept;
+}
+
+Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) {
+  params_.validate();
+}
+
+PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
+  if (cloud.size() > static_cast<std::size_t>(params_.max_points)) {
+    throw std::invalid_argument("Preprocessor: cloud has " + std::to_string(cloud.size()) +
+                                " points, more than preprocess/max_points = " +
+                                std::to_string(params_.max_points));
+  }
+  PreprocessResult result;
+  result.finite = finiteIndices(cloud);
+  Indices current = result.finite;
+  if (params_.outlier_removal) {
+    current = removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
+                                   &result.outliers);
+  }
+  if (params_.ground_removal) {
+    result.ground = findGroundPlane(cloud, current, params_);
+  }
+  // current and the ground inliers are both ascending: a linear set difference.
+  result.kept.reserve(current.size());
+  std::set_difference(current.begin(), current.end(), result.ground.inliers.begin(),
+                      result.ground.inliers.end(), std::back_inserter(result.kept));
+  return result;
+}
+
+}  // namespace novelty_detection
