@@ -87,7 +87,10 @@ TEST(TiledReference, CachesOneModelPerSetOfTiles) {
   TiledReference ref(params, 2.0, 2);
   Cloud map;
   for (int i = 0; i < 100; ++i) {
-    for (int j = 0; j < 10; ++j) map.push_back(PointT(0.1f * i, 0.1f * j, 0.0f));  // x 0..9.9
+    // A wall (x 0..9.9, y ~ 0.5, z 0.2..1.1), not ground: the pipeline removes the floor.
+    for (int j = 0; j < 10; ++j) {
+      map.push_back(PointT(0.1f * i, 0.5f + 0.01f * std::sin(0.7f * i * j), 0.2f + 0.1f * j));
+    }
   }
   EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()),
                std::logic_error);
