@@ -152,7 +152,7 @@ visualization_msgs::MarkerArray gaussianMarkers(const Result& result,
       m.color.r = 1.0f;
       m.color.g = 0.1f;
       m.color.b = 0.1f;
-      m.color.a = 0.7f;
+      m.color.a = 0.45f;
     } else {
       m.color.r = m.color.g = m.color.b = 0.6f;
       m.color.a = 0.25f;
