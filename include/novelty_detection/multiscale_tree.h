@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "novelty_detection/params.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -21,6 +22,7 @@ class MultiScaleTree {
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
     float sigma = 0.f;                ///< surface variation
+    Eigen::Vector3f eigenvalues = Eigen::Vector3f::Zero();  ///< of covariance, ascending
     int size() const { return end - begin; }
     bool isLeaf() const { return left < 0; }
   };
@@ -47,6 +49,18 @@ class MultiScaleTree {
   /// The scale (n_max, sigma_max): O(number of clusters + cloud size), no rebuild. Throws
   /// std::invalid_argument for n_max < 1 or sigma_max < 0 (or NaN).
   Cut cut(int n_max, double sigma_max) const;
+  /// Noise-aware scale: as cut(n_max, sigma_max) with the surface variation computed from
+  /// l0 - noise_var_m2 (clamped at 0), i.e. a cluster whose thickness is explained by
+  /// sensor noise of that variance counts as flat. noise_var_m2 = 0 is Pauly's rule.
+  Cut cut(int n_max, double sigma_max, double noise_var_m2) const;
+  /// The scale the parameters name: cut(n_max, sigma_max), or with noise_aware the
+  /// noise-aware cut discounting noise_factor * noiseVariance().
+  Cut cut(const MultiScaleParams& params) const;
+  /// Robust estimate of the noise variance normal to the surfaces [m^2]: the median over
+  /// the nodes of 8..64 points (mostly patches of planes, whose thickness is the noise) of
+  /// their smallest eigenvalue, corrected for the plane fit's degrees of freedom. 0 for an
+  /// empty or tiny tree.
+  double noiseVariance() const { return noise_variance_m2_; }
 
   const std::vector<Node>& nodes() const { return nodes_; }
   /// Input-cloud indices in tree order: node n owns order()[n.begin, n.end).
@@ -58,6 +72,7 @@ class MultiScaleTree {
   std::vector<Node> nodes_;
   Indices order_;
   std::size_t cloud_size_ = 0;
+  double noise_variance_m2_ = 0.0;
 };
 
 }  // namespace novelty_detection

@@ -33,6 +33,13 @@ Indices finiteIndices(const Cloud& cloud);
 Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
                              Indices* removed = nullptr);
 
+/// As above, each mean distance divided by the point's range from `sensor_origin` (at least
+/// 1 m): a scanning sensor samples at fixed angles, so its spacing grows with range, and
+/// Rusu's global statistic would otherwise take far, sparsely sampled walls for outliers.
+Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
+                                        double std_mul, const Eigen::Vector3f& sensor_origin,
+                                        Indices* removed = nullptr);
+
 /// RANSAC plane within `max_angle_deg` of horizontal (normal near +z of the cloud's frame)
 /// over `indices`; inliers within `distance_m`. The other settings take PreprocessParams'
 /// defaults (see the overload below, which this calls).
@@ -45,8 +52,8 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 ///     ground_distance_m on a random subset of ground_sample_points points. Among the
 ///     hypotheses with at least ground_lowest_support of the best score the LOWEST wins, so
 ///     a ceiling or a table top seen more densely than the floor is not taken for it.
-///  2. Refinement: the normal by least squares and the offset by the median residual of the
-///     points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
+///  2. Refinement (on the same subset): the normal by least squares and the offset by the
+///     median residual of the points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
 ///     point (sigma starts at ground_distance_m). The median is robust to what stands on
 ///     the floor (boxes, the foot of walls), which only ever lies above it.
 ///  3. Inliers: |distance| <= max(ground_distance_m, ground_noise_k * sigma).
@@ -64,6 +71,9 @@ class Preprocessor {
   /// all-NaN cloud gives an empty result; a cloud too small for a step (fewer than 2
   /// points for outliers, 3 for a plane) passes that step unchanged.
   PreprocessResult compute(const Cloud& cloud) const;
+  /// With the sensor position given explicitly (compute(cloud) uses cloud.sensor_origin_,
+  /// PCL's viewpoint, which the simulator and saveCloudAtomic fill in).
+  PreprocessResult compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin) const;
 
  private:
   PreprocessParams params_;

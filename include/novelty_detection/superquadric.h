@@ -73,6 +73,15 @@ double radialDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
 /// empty.
 double meanRadialDistance(const Superquadric& sq, const Points3d& points);
 
+/// First-order Euclidean distance of a point to the surface, |f| / |grad f| with
+/// f = F^(e1/2) - 1 (homogeneous of degree one, so exact for spheres and unbiased for a
+/// point displaced along the normal). Unlike the radial distance it does not inflate the
+/// noise on the long faces of elongated shapes, where rays from the centre meet the surface
+/// obliquely. Falls back to the radial distance at the centre.
+double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
+/// Mean of surfaceDistance() over points [m]; 0 when empty.
+double meanSurfaceDistance(const Superquadric& sq, const Points3d& points);
+
 /// Outward unit normal of the level set of F through a world point (gradient direction).
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world);
 

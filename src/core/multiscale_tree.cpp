@@ -64,6 +64,7 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
   nodes_.clear();
   order_.clear();
   cloud_size_ = cloud.size();
+  noise_variance_m2_ = 0.0;
 
   auto finite = [&cloud](int i) {
     const PointT& p = cloud[i];
@@ -124,6 +125,7 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
     node.centroid = st.centroid.cast<float>();
     node.covariance = st.covariance.cast<float>();
     node.sigma = static_cast<float>(surfaceVariation(st.eigenvalues));
+    node.eigenvalues = st.eigenvalues.cast<float>();
 
     const int size = node.size();
     if (size <= kMaxLeafSize) continue;
@@ -188,13 +190,47 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
     origins.push_back(c);
     origins.push_back(c);
   }
+
+  // Noise: on a plane, n * l0 / noise_var is chi-square with n - 3 degrees of freedom (the
+  // residuals about the fitted plane), whose median is ~ nu (1 - 2 / (9 nu))^3; dividing
+  // that out makes every node an unbiased vote, and the median of the votes ignores the
+  // minority of nodes on edges and corners.
+  std::vector<double> l0;
+  for (const Node& node : nodes_) {
+    const int size = node.size();
+    // Plate-like nodes only: where the in-plane spread is not far above the noise, splits
+    // start cutting through the noise itself and the small l0 left would bias the vote.
+    if (size < 16 || size > 256 || node.eigenvalues(1) < 10.f * node.eigenvalues(0)) continue;
+    const double nu = size - 3.0;
+    const double median_factor = std::pow(1.0 - 2.0 / (9.0 * nu), 3.0);
+    l0.push_back(node.eigenvalues(0) * size / (nu * median_factor));
+  }
+  if (!l0.empty()) {
+    std::nth_element(l0.begin(), l0.begin() + l0.size() / 2, l0.end());
+    noise_variance_m2_ = l0[l0.size() / 2];
+  }
 }
 
 MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {
+  return cut(n_max, sigma_max, 0.0);
+}
+
+MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max,
+                                        double noise_var_m2) const {
   if (n_max < 1) throw std::invalid_argument("MultiScaleTree::cut: n_max must be >= 1");
   if (!(sigma_max >= 0.0)) {
     throw std::invalid_argument("MultiScaleTree::cut: sigma_max must be >= 0");
   }
+  if (!(noise_var_m2 >= 0.0)) {
+    throw std::invalid_argument("MultiScaleTree::cut: noise_var_m2 must be >= 0");
+  }
+  // Surface variation with the noise's share of l0 taken out (exactly Pauly's for 0).
+  auto flat = [&](const Node& node) {
+    if (noise_var_m2 == 0.0) return node.sigma <= sigma_max;
+    const double total = node.eigenvalues.cast<double>().sum();
+    const double excess = std::max(0.0, node.eigenvalues(0) - noise_var_m2);
+    return total <= 0.0 || excess <= sigma_max * total;
+  };
   Cut cut;
   cut.cluster_of.assign(cloud_size_, -1);
   if (nodes_.empty()) return cut;
@@ -206,7 +242,7 @@ MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {
     const int id = stack.back();
     stack.pop_back();
     const Node& node = nodes_[id];
-    if (node.isLeaf() || (node.size() <= n_max && node.sigma <= sigma_max)) {
+    if (node.isLeaf() || (node.size() <= n_max && flat(node))) {
       const int cluster = static_cast<int>(cut.nodes.size());
       cut.nodes.push_back(id);
       cut.points.push_back(node.centroid);
@@ -218,6 +254,12 @@ MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {
     }
   }
   return cut;
+}
+
+MultiScaleTree::Cut MultiScaleTree::cut(const MultiScaleParams& params) const {
+  params.validate();
+  return cut(params.n_max, params.sigma_max,
+             params.noise_aware ? params.noise_factor * noise_variance_m2_ : 0.0);
 }
 
 Indices MultiScaleTree::nodeIndices(int node) const {

@@ -33,6 +33,7 @@ void PreprocessParams::validate() const {
 void MultiScaleParams::validate() const {
   requireRange("multiscale/n_max", n_max, 1, 1000000);
   requireRange("multiscale/sigma_max", sigma_max, 0.0, 1.0 / 3.0);
+  requireRange("multiscale/noise_factor", noise_factor, 0.0, 100.0);
 }
 
 void GmmParams::validate() const {
@@ -64,6 +65,7 @@ void SegmentationParams::validate() const {
   requireRange("segmentation/link_factor", link_factor, 0.1, 100.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
   requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
+  requireRange("segmentation/visibility_angle_deg", visibility_angle_deg, 0.01, 45.0);
 }
 
 void SuperquadricParams::validate() const {
@@ -85,11 +87,14 @@ void SuperquadricParams::validate() const {
   requireRange("superquadric/screening_points", screening_points, 11, 100000000);
   requireRange("superquadric/screening_iterations", screening_iterations, 0, 10000);
   requireRange("superquadric/max_fit_points", max_fit_points, 11, 100000000);
+  requireRange("superquadric/split_max_points", split_max_points, 11, 100000000);
   requireRange("superquadric/split_min_points", split_min_points, 4, 100000000);
   requireRange("superquadric/split_fit_points", split_fit_points, 11, 100000000);
   requireRange("superquadric/split_gain", split_gain, 0.0, 1.0);
+  requireRange("superquadric/split_force_factor", split_force_factor, 1.0, 1e6);
   requireRange("superquadric/merge_tolerance", merge_tolerance, 0.0, 10.0);
   requireRange("superquadric/error_floor_m", error_floor_m, 0.0, 10.0);
+  requireRange("superquadric/noise_factor", noise_factor, 0.0, 100.0);
   requireRange("superquadric/neighbour_distance_factor", neighbour_distance_factor, 0.5, 100.0);
   requireRange("superquadric/max_parts", max_parts, 1, 1024);
 }

@@ -21,9 +21,11 @@ struct ReferenceModel {
   Cloud cloud;                   ///< as given
   Gmm gmm;                       ///< Gamma
   NearestNeighbourIndex points;  ///< every finite reference point (ground included)
+  VisibilityIndex visibility;    ///< map points by direction from the reference viewpoint
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
-  double explained_log_density = -std::numeric_limits<double>::infinity();
+  /// +inf when the check is off (no point counts as explained).
+  double explained_log_density = std::numeric_limits<double>::infinity();
 };
 
 namespace {
@@ -160,6 +162,9 @@ void Pipeline::setReference(const Cloud& reference) {
   }
   model->gmm = GmmFitter(params_.gmm).fit(s.reps);
   model->points.build(reference, s.pre.finite);
+  const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
+  if (params_.segmentation.visibility_check && !origin.isZero())
+    model->visibility.build(reference, s.pre.finite, origin);
   if (params_.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
     const std::size_t stride = std::max<std::size_t>(1, s.pre.kept.size() / 5000);
     std::vector<int> sample;
@@ -280,8 +285,15 @@ Result Pipeline::detect(const Cloud& current) const {
       xf.col(i) = point3f(current[far_points[i]]).cast<double>();
     Eigen::VectorXd ll;
     if (!far_points.empty()) responsibilities(ref.gmm, xf, &ll);
+    const double max_angle = params_.segmentation.visibility_angle_deg * M_PI / 180.0;
     for (std::size_t i = 0; i < far_points.size(); ++i) {
       if (ll[i] >= ref.explained_log_density) continue;
+      // Free space: only space the reference saw through can hold a new object; surfaces
+      // the reference could not see (revealed behind a moved object, out of its view) are
+      // not novelties.
+      if (!ref.visibility.empty() &&
+          !ref.visibility.seenThrough(point3f(current[far_points[i]]), tau, max_angle))
+        continue;
       novel_points.push_back(far_points[i]);
       owner.push_back(far_owner[i]);
     }
@@ -333,6 +345,34 @@ Result Pipeline::detect(const Cloud& current) const {
     return n;
   }());
   timer.lap("segmentation");
+
+  // Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
+  // the coarse points. A failed fit never loses the detection.
+  if (params_.superquadric.enabled && !result.segments.empty()) {
+    const ShapeRetrieval retrieval(params_.superquadric);
+    for (const Segment& seg : result.segments) {
+      Points3d fine, coarse;
+      fine.reserve(seg.indices.size());
+      std::vector<char> seen(s.fine.points.size(), 0);
+      for (int i : seg.indices) {
+        fine.push_back(point3f(current[i]).cast<double>());
+        const int c = s.fine.cluster_of[i];
+        if (c >= 0 && !seen[c]) {
+          seen[c] = 1;
+          coarse.push_back(s.fine.points[c].cast<double>());
+        }
+      }
+      try {
+        for (Superquadric sq : retrieval.recover(fine, coarse, seg.id)) {
+          for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
+          result.superquadrics.push_back(std::move(sq));
+        }
+      } catch (const std::exception&) {
+        // Keep the segment without a shape.
+      }
+    }
+    timer.lap("superquadrics");
+  }
   return result;
 }
 

@@ -22,11 +22,19 @@ Indices finiteIndices(const Cloud& cloud) {
   return out;
 }
 
-Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
-                             Indices* removed) {
+namespace {
+
+/// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
+/// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
+/// spacing).
+Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
+                            const Eigen::Vector3f* origin, Indices* removed) {
   if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
   if (!(std_mul >= 0.0)) {
     throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
+  }
+  if (origin && !origin->allFinite()) {
+    throw std::invalid_argument("removeSparseOutliers: the sensor origin is not finite");
   }
   if (removed) removed->clear();
   std::vector<Eigen::Vector3f> pts;
@@ -50,9 +58,14 @@ Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, 
   const int n = static_cast<int>(pts.size());
   if (n < 2) return valid;  // no neighbours, no statistics
 
-  // Rusu et al. 2008: mean distance to the k nearest neighbours; outliers lie beyond
-  // mu + std_mul * sigma of the distribution of those means.
-  const std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
+  // the distribution of those means.
+  std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  if (origin) {
+    for (int j = 0; j < n; ++j) {
+      mean_dist[j] /= std::max(1.0, static_cast<double>((pts[j] - *origin).norm()));
+    }
+  }
   double mu = 0.0;
   for (double v : mean_dist) mu += v;
   mu /= n;
@@ -72,11 +85,29 @@ Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, 
   return kept;
 }
 
+}  // namespace
+
+Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
+                             Indices* removed) {
+  return statisticalOutliers(cloud, indices, k, std_mul, nullptr, removed);
+}
+
+Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
+                                        double std_mul, const Eigen::Vector3f& sensor_origin,
+                                        Indices* removed) {
+  return statisticalOutliers(cloud, indices, k, std_mul, &sensor_origin, removed);
+}
+
 Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) {
   params_.validate();
 }
 
 PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
+  return compute(cloud, cloud.sensor_origin_.head<3>());
+}
+
+PreprocessResult Preprocessor::compute(const Cloud& cloud,
+                                       const Eigen::Vector3f& sensor_origin) const {
   if (cloud.size() > static_cast<std::size_t>(params_.max_points)) {
     throw std::invalid_argument("Preprocessor: cloud has " + std::to_string(cloud.size()) +
                                 " points, more than preprocess/max_points = " +
@@ -86,8 +117,12 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
   result.finite = finiteIndices(cloud);
   Indices current = result.finite;
   if (params_.outlier_removal) {
-    current = removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
-                                   &result.outliers);
+    current = params_.outlier_range_scaled
+                  ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
+                                                    params_.outlier_std_mul, sensor_origin,
+                                                    &result.outliers)
+                  : removeSparseOutliers(cloud, current, params_.outlier_k,
+                                         params_.outlier_std_mul, &result.outliers);
   }
   if (params_.ground_removal) {
     result.ground = findGroundPlane(cloud, current, params_);

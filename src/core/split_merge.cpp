@@ -4,9 +4,13 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <unordered_map>
 
+#include <Eigen/Eigenvalues>
+
+#include "novelty_detection/point_grid.h"
 #include "novelty_detection/superquadric.h"
 
 namespace novelty_detection {
@@ -28,64 +32,46 @@ Indices sortedUnion(const Indices& a, const Indices& b) {
   return u;
 }
 
-/// Median distance of a few evenly spread points to their nearest other point.
-double medianSpacing(const Points3d& points) {
+/// Sensor noise estimate [m]: the median, over a few evenly spread points, of the RMS
+/// distance of their neighbours (within `radius`) to the neighbours' best plane, sqrt of
+/// the smallest covariance eigenvalue. Edges and corners are a minority, so the median
+/// sees flat patches.
+double estimateNoise(const Points3d& points, const PointGrid& grid, double radius) {
   const std::size_t n = points.size();
-  if (n < 2) return 0.0;
   const std::size_t samples = std::min<std::size_t>(n, 64);
-  std::vector<double> nn;
-  nn.reserve(samples);
+  std::vector<double> rms;
   for (std::size_t k = 0; k < samples; ++k) {
-    const std::size_t i = k * n / samples;
-    double best = kInf;
-    for (std::size_t j = 0; j < n; ++j) {
-      if (j == i) continue;
-      const double d2 = (points[j] - points[i]).squaredNorm();
-      if (d2 > 0.0 && d2 < best) best = d2;
-    }
-    if (std::isfinite(best)) nn.push_back(std::sqrt(best));
+    const Eigen::Vector3d& p = points[k * n / samples];
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d sq = Eigen::Matrix3d::Zero();
+    int count = 0;
+    grid.forNeighbours(p, radius, [&](int j) {
+      const Eigen::Vector3d d = points[static_cast<std::size_t>(j)] - p;
+      sum += d;
+      sq.noalias() += d * d.transpose();
+      ++count;
+    });
+    if (count < 6) continue;
+    const Eigen::Vector3d mean = sum / count;
+    const Eigen::Matrix3d cov = sq / count - mean * mean.transpose();
+    const double l0 = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly)
+                          .eigenvalues()[0];
+    rms.push_back(std::sqrt(std::max(0.0, l0)));
   }
-  if (nn.empty()) return 0.0;
-  std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
-  return nn[nn.size() / 2];
+  if (rms.empty()) return 0.0;
+  std::nth_element(rms.begin(), rms.begin() + rms.size() / 2, rms.end());
+  return rms[rms.size() / 2];
 }
 
-/// Marks leaves whose points come closer than `radius` (hash grid with cells of that size).
-void touchingLeaves(const Points3d& points, const std::vector<int>& label, double radius,
-                    std::vector<std::vector<char>>& adjacent) {
-  auto cell = [radius](const Eigen::Vector3d& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius)),
-                           static_cast<int>(std::floor(p.y() / radius)),
-                           static_cast<int>(std::floor(p.z() / radius)));
-  };
-  auto key = [](const Eigen::Vector3i& c) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.x())) * 73856093ULL) ^
-           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.y())) * 19349663ULL) ^
-           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.z())) * 83492791ULL);
-  };
-  std::unordered_map<std::uint64_t, std::vector<int>> grid;
-  grid.reserve(points.size());
+/// Marks leaves whose points come closer than `radius`.
+void touchingLeaves(const Points3d& points, const PointGrid& grid, const std::vector<int>& label,
+                    double radius, std::vector<std::vector<char>>& adjacent) {
   for (std::size_t i = 0; i < points.size(); ++i) {
-    grid[key(cell(points[i]))].push_back(static_cast<int>(i));
-  }
-  const double r2 = radius * radius;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3i c = cell(points[i]);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = grid.find(key(c + Eigen::Vector3i(dx, dy, dz)));
-          if (it == grid.end()) continue;
-          for (int j : it->second) {
-            const int li = label[i], lj = label[static_cast<std::size_t>(j)];
-            if (li == lj || adjacent[li][lj]) continue;
-            if ((points[static_cast<std::size_t>(j)] - points[i]).squaredNorm() <= r2) {
-              adjacent[li][lj] = adjacent[lj][li] = 1;
-            }
-          }
-        }
-      }
-    }
+    const int li = label[i];
+    grid.forNeighbours(points[i], radius, [&](int j) {
+      const int lj = label[static_cast<std::size_t>(j)];
+      if (li != lj) adjacent[li][lj] = adjacent[lj][li] = 1;
+    });
   }
 }
 
@@ -97,9 +83,20 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
                                               const FitResult* whole) const {
   if (points.empty()) throw std::invalid_argument("SplitMerge::run: no points");
   stats_ = Stats();
+  // Fits inside split and merge only rank candidates: fewer LM iterations suffice.
+  const int inner_iterations = std::min(params_.max_iterations, 20);
   auto fit_part = [&](const Indices& indices) {
     return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points));
   };
+
+  // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
+  // radial error is below `exact` explains its points within the noise.
+  const double spacing = medianSpacing(points);
+  const double radius = params_.neighbour_distance_factor * spacing;
+  std::unique_ptr<PointGrid> grid;
+  if (radius > 0.0) grid = std::make_unique<PointGrid>(points, radius);
+  stats_.noise_m = grid ? estimateNoise(points, *grid, radius) : 0.0;
+  const double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
 
   // ---- Split: a binary tree over the points (Sec. V-C, first step).
   struct Node {
@@ -114,8 +111,8 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   if (whole) {
     nodes[0].fit = *whole;
     // Errors are compared on the same subsample sizes as the halves' fits.
-    nodes[0].fit.mean_radial_distance =
-        meanRadialDistance(whole->sq, subsample(points, params_.split_fit_points));
+    nodes[0].fit.mean_distance =
+        meanSurfaceDistance(whole->sq, subsample(points, params_.split_fit_points));
   } else {
     nodes[0].fit = fit_part(nodes[0].indices);
   }
@@ -128,7 +125,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     double worst = -1.0;
     for (std::size_t k = 0; k < leaves.size(); ++k) {
       const Node& node = nodes[leaves[k]];
-      const double d = node.indices.size() * node.fit.mean_radial_distance;
+      const double d = node.indices.size() * node.fit.mean_distance;
       if (!node.final && d > worst) {
         worst = d;
         pick = static_cast<int>(k);
@@ -138,8 +135,8 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     const int id = leaves[pick];
     nodes[id].final = true;  // unless split below
     const Indices& idx = nodes[id].indices;
-    const double e = nodes[id].fit.mean_radial_distance;
-    if (e <= params_.error_floor_m || idx.size() < 2 * min_points) continue;
+    const double e = nodes[id].fit.mean_distance;
+    if (e <= exact || idx.size() < 2 * min_points) continue;
     const PrincipalFrame frame = principalFrame(gather(points, idx));
     const Eigen::Vector3d axis = frame.axes.col(2);  // main inertia axis
     Indices lo, hi;
@@ -149,10 +146,14 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     }
     if (lo.size() < min_points || hi.size() < min_points) continue;
     FitResult fit_lo = fit_part(lo), fit_hi = fit_part(hi);
-    const double e_split = (lo.size() * fit_lo.mean_radial_distance +
-                            hi.size() * fit_hi.mean_radial_distance) /
+    const double e_split = (lo.size() * fit_lo.mean_distance +
+                            hi.size() * fit_hi.mean_distance) /
                            static_cast<double>(idx.size());
-    if (!(e_split < params_.split_gain * e)) continue;
+    // A cut across a junction can leave both halves mixed and no better than the parent:
+    // a part far from explained (e > split_force_factor E) is split regardless.
+    if (!(e_split < params_.split_gain * e) && !(e > params_.split_force_factor * exact)) {
+      continue;
+    }
     Node a, b;
     a.indices = std::move(lo);
     a.fit = std::move(fit_lo);
@@ -183,13 +184,12 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
       if (nodes[leaves[i]].parent == nodes[leaves[j]].parent) adjacent[i][j] = adjacent[j][i] = 1;
     }
   }
-  const double spacing = medianSpacing(points);
-  if (spacing > 0.0) {
+  if (grid) {
     std::vector<int> label(points.size(), 0);
     for (int k = 0; k < count; ++k) {
       for (int i : parts[k].indices) label[static_cast<std::size_t>(i)] = k;
     }
-    touchingLeaves(points, label, params_.neighbour_distance_factor * spacing, adjacent);
+    touchingLeaves(points, *grid, label, radius, adjacent);
   }
 
   // ---- Merge with a memoized cost matrix (Sec. V-C, second step).
@@ -199,8 +199,14 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   auto at = [count](int i, int j) { return static_cast<std::size_t>(i) * count + j; };
   auto compute = [&](int i, int j) {
     if (i > j) std::swap(i, j);
-    FitResult f = fit_part(sortedUnion(parts[i].indices, parts[j].indices));
-    cost[at(i, j)] = f.mean_radial_distance;
+    // The merged model starts from the bigger part's model: cheaper than a multi-start and
+    // as good for pieces of one shape (the case where a merge is accepted).
+    const Points3d united =
+        subsample(gather(points, sortedUnion(parts[i].indices, parts[j].indices)),
+                  params_.split_fit_points);
+    const int start = parts[i].indices.size() >= parts[j].indices.size() ? i : j;
+    FitResult f = fitter_.refine(united, parts[start].fit.sq, inner_iterations);
+    cost[at(i, j)] = f.mean_distance;
     merged[at(i, j)] = std::move(f);
     ++stats_.merge_fits;
   };
@@ -232,13 +238,19 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
           ai = i;
           aj = j;
         }
-        const double ni = parts[i].indices.size(), nj = parts[j].indices.size();
-        const double mean = (ni * parts[i].fit.mean_radial_distance +
-                             nj * parts[j].fit.mean_radial_distance) /
-                            (ni + nj);
-        const double allowed =
-            std::max(params_.error_floor_m, (1.0 + params_.merge_tolerance) * mean);
-        if (c <= allowed && c < best_ok) {
+        // The merged fit is exact, or (Sec. V-C's rule, with the overall distortion in
+        // place of the worse part's error, up to the tolerance t) it does not raise the
+        // pair's share of the distortion and is not bigger than both parts together.
+        const double tol = 1.0 + params_.merge_tolerance;
+        const double ni = static_cast<double>(parts[i].indices.size());
+        const double nj = static_cast<double>(parts[j].indices.size());
+        const double mean =
+            (ni * parts[i].fit.mean_distance + nj * parts[j].fit.mean_distance) / (ni + nj);
+        const bool allowed =
+            c <= exact ||
+            (c <= tol * mean && volume(merged[at(i, j)].sq) <=
+                                    tol * (volume(parts[i].fit.sq) + volume(parts[j].fit.sq)));
+        if (allowed && c < best_ok) {
           best_ok = c;
           bi = i;
           bj = j;
@@ -282,6 +294,100 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   std::vector<SuperquadricPart> out;
   for (int k = 0; k < count; ++k) {
     if (active[k]) out.push_back(std::move(parts[k]));
+  }
+
+  // Dissolve: a piece cut out of a junction mixes two shapes, fits badly on its own and
+  // merges with neither. If the other parts' surfaces explain its points (mean nearest
+  // distance <= max(E, (1 + t) e_j)) it is removed and its points join the nearest part.
+  // Smallest parts are examined first; receivers are refitted from their models.
+  for (bool dissolved = true; dissolved && out.size() > 1;) {
+    dissolved = false;
+    std::vector<std::size_t> order(out.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+      return out[x].indices.size() < out[y].indices.size();
+    });
+    for (std::size_t j : order) {
+      double sum = 0.0;
+      std::vector<std::size_t> target(out[j].indices.size());
+      for (std::size_t n = 0; n < out[j].indices.size(); ++n) {
+        const Eigen::Vector3d& p = points[static_cast<std::size_t>(out[j].indices[n])];
+        double best_d = kInf;
+        for (std::size_t k = 0; k < out.size(); ++k) {
+          if (k == j) continue;
+          const double d = surfaceDistance(out[k].fit.sq, p);
+          if (d < best_d) {
+            best_d = d;
+            target[n] = k;
+          }
+        }
+        sum += best_d;
+      }
+      const double explained = sum / static_cast<double>(out[j].indices.size());
+      if (explained > std::max(exact, (1.0 + params_.merge_tolerance) * out[j].fit.mean_distance)) {
+        continue;
+      }
+      std::vector<Indices> gained(out.size());
+      for (std::size_t n = 0; n < out[j].indices.size(); ++n) gained[target[n]].push_back(out[j].indices[n]);
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        if (gained[k].empty()) continue;
+        out[k].indices = sortedUnion(out[k].indices, gained[k]);
+        out[k].fit = fitter_.refine(
+            subsample(gather(points, out[k].indices), params_.split_fit_points), out[k].fit.sq,
+            inner_iterations);
+      }
+      out.erase(out.begin() + static_cast<std::ptrdiff_t>(j));
+      ++stats_.dissolved;
+      dissolved = true;
+      break;
+    }
+  }
+  // Boundaries: the split planes cut across junctions, so a part may keep a sliver of its
+  // neighbour. Every point moves to the part whose surface is nearest; the changed parts are refitted from their models, and the
+  // round is kept only if the total distortion (sum of point distances) drops.
+  auto total_distortion = [&](const std::vector<SuperquadricPart>& ps) {
+    double sum = 0.0;
+    for (const auto& p : ps) {
+      for (int i : p.indices) sum += surfaceDistance(p.fit.sq, points[static_cast<std::size_t>(i)]);
+    }
+    return sum;
+  };
+  double distortion = total_distortion(out);
+  for (int round = 0; round < 2 && out.size() > 1; ++round) {
+    std::vector<Indices> assigned(out.size());
+    std::vector<char> changed(out.size(), 0);
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      for (int i : out[k].indices) {
+        const Eigen::Vector3d& p = points[static_cast<std::size_t>(i)];
+        std::size_t best = k;
+        double best_d = surfaceDistance(out[k].fit.sq, p);
+        for (std::size_t m = 0; m < out.size(); ++m) {
+          const double d = m == k ? best_d : surfaceDistance(out[m].fit.sq, p);
+          if (d < best_d) {
+            best_d = d;
+            best = m;
+          }
+        }
+        assigned[best].push_back(i);
+        if (best != k) changed[k] = changed[best] = 1;
+      }
+    }
+    std::vector<SuperquadricPart> next;
+    for (std::size_t k = 0; k < out.size(); ++k) {
+      std::sort(assigned[k].begin(), assigned[k].end());
+      if (assigned[k].empty()) continue;
+      SuperquadricPart part;
+      part.fit = changed[k] ? fitter_.refine(subsample(gather(points, assigned[k]),
+                                                       params_.split_fit_points),
+                                             out[k].fit.sq, inner_iterations)
+                            : out[k].fit;
+      part.indices = std::move(assigned[k]);
+      next.push_back(std::move(part));
+    }
+    const double next_distortion = total_distortion(next);
+    if (!(next_distortion < distortion)) break;
+    distortion = next_distortion;
+    out = std::move(next);
   }
   return out;
 }

@@ -94,6 +94,27 @@ double meanRadialDistance(const Superquadric& sq, const Points3d& points) {
   return sum / static_cast<double>(points.size());
 }
 
+namespace {
+double surfaceDistanceCanonical(const Superquadric& sq, const Eigen::Vector3d& q) {
+  const double l = logF(sq, q);
+  const double g = gradLogF(sq, q).norm();
+  const double d = std::abs(1.0 - std::exp(std::min(-0.5 * sq.e1 * l, kMaxLog))) / (0.5 * sq.e1 * g);
+  return std::isfinite(d) ? d : radialDistanceCanonical(sq, q);
+}
+}  // namespace
+
+double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
+  return surfaceDistanceCanonical(sq, toCanonical(sq, p_world));
+}
+
+double meanSurfaceDistance(const Superquadric& sq, const Points3d& points) {
+  if (points.empty()) return 0.0;
+  const Eigen::Matrix3d rt = sq.rotation().transpose();
+  double sum = 0.0;
+  for (const auto& p : points) sum += surfaceDistanceCanonical(sq, rt * (p - sq.position));
+  return sum / static_cast<double>(points.size());
+}
+
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   const Eigen::Vector3d q = toCanonical(sq, p_world);
   Eigen::Vector3d g = gradLogF(sq, q);

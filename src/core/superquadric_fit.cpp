@@ -191,6 +191,7 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   sq.points = static_cast<int>(points.size());
   result.iterations = static_cast<int>(summary.iterations.size());
   result.mean_radial_distance = meanRadialDistance(sq, points);
+  result.mean_distance = meanSurfaceDistance(sq, points);
   result.residual = meanSquaredResidual(sq, points);
   sq.residual = result.residual;
   return result;

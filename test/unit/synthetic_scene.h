@@ -144,6 +144,7 @@ inline Scene makeCorridor(const SceneOptions& opt) {
   out.cloud.width = static_cast<std::uint32_t>(out.cloud.size());
   out.cloud.height = 1;
   out.cloud.is_dense = nans == 0;
+  out.cloud.sensor_origin_ << opt.sensor.cast<float>(), 0.f;
   return out;
 }
 

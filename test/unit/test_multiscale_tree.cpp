@@ -40,7 +40,7 @@ nd::Cloud corner(int n, unsigned seed) {
 
 /// Checks that the cut partitions the tree's points and agrees with the nodes.
 void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& cut,
-                     int n_max, double sigma_max) {
+                     int n_max, double sigma_max, bool pauly_scale = true) {
   ASSERT_EQ(cut.cluster_of.size(), cloud.size());
   ASSERT_EQ(cut.points.size(), cut.nodes.size());
   ASSERT_EQ(cut.sizes.size(), cut.nodes.size());
@@ -67,6 +67,7 @@ void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& 
     total += cut.sizes[c];
     EXPECT_LT((sum[c] / count[c] - cut.points[c].cast<double>()).norm(), 1e-4);
     // A cluster satisfies the scale (or is a leaf), and its parent did not.
+    if (!pauly_scale) continue;
     EXPECT_TRUE(node.isLeaf() || (node.size() <= n_max && node.sigma <= sigma_max));
     if (node.parent >= 0) {
       const Tree::Node& parent = tree.nodes()[node.parent];
@@ -268,4 +269,37 @@ TEST(MultiScaleTree, DegenerateGeometry) {
   tree.build(far);
   EXPECT_LT(tree.nodes()[0].sigma, 1e-5);
   EXPECT_EQ(tree.cut(500, 1e-3).nodes.size(), 1u);
+}
+
+TEST(MultiScaleTree, NoiseEstimateAndNoiseAwareCut) {
+  // A 2 m x 2 m floor with 1 cm Gaussian noise in z.
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> u(0.f, 2.f);
+  std::normal_distribution<float> n(0.f, 0.01f);
+  nd::Cloud cloud;
+  for (int k = 0; k < 20000; ++k) cloud.push_back(nd::PointT(u(rng), u(rng), n(rng)));
+  Tree tree;
+  tree.build(cloud);
+  EXPECT_NEAR(tree.noiseVariance(), 1e-4, 0.15e-4);
+  // Pauly's rule reads the noise as curvature and splits far below n_max; the noise-aware
+  // rule keeps clusters of up to n_max points.
+  const Tree::Cut pauly = tree.cut(64, 0.01);
+  const Tree::Cut aware = tree.cut(64, 0.01, 2.0 * tree.noiseVariance());
+  expectPartition(tree, cloud, aware, 64, 0.01, false);
+  EXPECT_GT(pauly.nodes.size(), 2 * aware.nodes.size());
+  EXPECT_LT(aware.nodes.size(), 20000u / 20);
+  // noise 0 is Pauly's rule exactly; more discounted noise never refines the cut.
+  EXPECT_EQ(tree.cut(64, 0.01, 0.0).nodes, pauly.nodes);
+  std::size_t previous = pauly.nodes.size();
+  for (const double v : {1e-5, 1e-4, 2e-4, 1e-3}) {
+    const std::size_t size = tree.cut(64, 0.01, v).nodes.size();
+    EXPECT_LE(size, previous);
+    previous = size;
+  }
+  nd::MultiScaleParams p;
+  EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max,
+                                        p.noise_factor * tree.noiseVariance()).nodes);
+  p.noise_aware = false;
+  EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max).nodes);
+  EXPECT_THROW(tree.cut(8, 0.01, -1.0), std::invalid_argument);
 }

@@ -187,3 +187,17 @@ TEST(Superquadric, SurfaceNormalOfSphereIsRadial) {
     EXPECT_LT((surfaceNormal(sq, p) - (p - sq.position).normalized()).norm(), 1e-9);
   }
 }
+
+TEST(Superquadric, SurfaceDistanceIsEuclideanToFirstOrder) {
+  // Sphere: exact. Box face: a point 1 cm off a long face is 1 cm away, even near the end
+  // of the face where the radial distance is inflated by the oblique ray.
+  const Superquadric sphere = makeSq({0.5, 0.5, 0.5}, 1.0, 1.0, {0.3, 0.2, 0.1}, {1, 2, 3});
+  EXPECT_NEAR(surfaceDistance(sphere, toWorld(sphere, {0.0, 0.6, 0.0})), 0.1, 1e-12);
+  EXPECT_NEAR(surfaceDistance(sphere, toWorld(sphere, {0.3, 0.0, 0.0})), 0.2, 1e-12);
+  const Superquadric slab = makeSq({0.1, 0.1, 0.5}, 0.3, 0.3);
+  const Eigen::Vector3d p(0.11, 0.0, 0.3);  // 1 cm outside the x face, high up
+  EXPECT_NEAR(surfaceDistance(slab, p), 0.01, 0.002);
+  EXPECT_GT(radialDistance(slab, p), 0.025);
+  EXPECT_TRUE(std::isfinite(surfaceDistance(slab, slab.position)));
+  for (const auto& q : sampleSurfaceRandom(slab, 100, 4u)) EXPECT_NEAR(surfaceDistance(slab, q), 0.0, 1e-9);
+}

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace novelty_detection {
 namespace detail {
@@ -12,10 +13,13 @@ struct Item {
   int id;
 };
 
-float boxDistance2(const Eigen::Vector3f& q, const Eigen::Vector3f& lo,
-                   const Eigen::Vector3f& hi) {
-  const Eigen::Vector3f d = (lo - q).cwiseMax(q - hi).cwiseMax(0.f);
-  return d.squaredNorm();
+inline float boxDistance2(const float* q, const float* lo, const float* hi) {
+  float d2 = 0.f;
+  for (int a = 0; a < 3; ++a) {
+    const float t = std::max(std::max(lo[a] - q[a], q[a] - hi[a]), 0.f);
+    d2 += t * t;
+  }
+  return d2;
 }
 
 }  // namespace
@@ -26,105 +30,123 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points) {
   for (int i = 0; i < n; ++i) items[i] = {points[i], i};
   leaf_of_.assign(n, -1);
   nodes_.reserve(static_cast<std::size_t>(n / (kLeafSize / 2) + 2));
-  // Median splits along the widest box side; items are permuted in place.
-  pts_.resize(n);
-  id_.resize(n);
-  if (n == 0) return;
-  std::vector<std::pair<int, int>> stack{{0, n}};
-  std::vector<int> slot_of_stack{-1};  // node whose child link to fill (-1: root)
-  std::vector<char> is_right{0};
-  while (!stack.empty()) {
-    const auto [begin, end] = stack.back();
-    const int parent = slot_of_stack.back();
-    const bool right = is_right.back();
-    stack.pop_back();
-    slot_of_stack.pop_back();
-    is_right.pop_back();
-    Node node;
-    node.begin = begin;
-    node.end = end;
-    node.lo = node.hi = items[begin].p;
-    for (int i = begin + 1; i < end; ++i) {
-      node.lo = node.lo.cwiseMin(items[i].p);
-      node.hi = node.hi.cwiseMax(items[i].p);
+  if (n > 0) {
+    // Median splits along the widest box side; items are permuted in place.
+    struct Task {
+      int begin, end, parent;
+      bool right;
+    };
+    std::vector<Task> stack{{0, n, -1, false}};
+    while (!stack.empty()) {
+      const Task task = stack.back();
+      stack.pop_back();
+      Node node;
+      node.begin = task.begin;
+      node.end = task.end;
+      node.parent = task.parent;
+      Eigen::Vector3f lo = items[task.begin].p, hi = lo;
+      for (int i = task.begin + 1; i < task.end; ++i) {
+        lo = lo.cwiseMin(items[i].p);
+        hi = hi.cwiseMax(items[i].p);
+      }
+      for (int a = 0; a < 3; ++a) {
+        node.lo[a] = lo[a];
+        node.hi[a] = hi[a];
+      }
+      const int id = static_cast<int>(nodes_.size());
+      nodes_.push_back(node);
+      if (task.parent >= 0) {
+        (task.right ? nodes_[task.parent].right : nodes_[task.parent].left) = id;
+      }
+      if (task.end - task.begin <= kLeafSize) {
+        for (int i = task.begin; i < task.end; ++i) leaf_of_[i] = id;
+        continue;
+      }
+      int dim = 0;
+      (hi - lo).maxCoeff(&dim);
+      const int mid = task.begin + (task.end - task.begin) / 2;
+      std::nth_element(items.begin() + task.begin, items.begin() + mid,
+                       items.begin() + task.end,
+                       [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
+      stack.push_back({mid, task.end, id, true});
+      stack.push_back({task.begin, mid, id, false});
     }
-    const int id = static_cast<int>(nodes_.size());
-    nodes_.push_back(node);
-    if (parent >= 0) (right ? nodes_[parent].right : nodes_[parent].left) = id;
-    if (end - begin <= kLeafSize) {
-      for (int i = begin; i < end; ++i) leaf_of_[i] = id;
-      continue;
-    }
-    int dim = 0;
-    (node.hi - node.lo).maxCoeff(&dim);
-    const int mid = begin + (end - begin) / 2;
-    std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
-                     [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
-    stack.push_back({mid, end});
-    slot_of_stack.push_back(id);
-    is_right.push_back(1);
-    stack.push_back({begin, mid});
-    slot_of_stack.push_back(id);
-    is_right.push_back(0);
   }
+  x_.resize(n);
+  y_.resize(n);
+  z_.resize(n);
+  id_.resize(n);
   for (int i = 0; i < n; ++i) {
-    pts_[i] = items[i].p;
+    x_[i] = items[i].p.x();
+    y_[i] = items[i].p.y();
+    z_[i] = items[i].p.z();
     id_[i] = items[i].id;
   }
 }
 
-void KnnTree::search(int node_id, const Eigen::Vector3f& q, int self, int k, float* d2,
-                     int* who, int* count, int skip_node) const {
+void KnnTree::search(int node_id, const float* q, int self, int k, float* d2,
+                     int* count) const {
   const Node& node = nodes_[node_id];
-  if (*count == k && boxDistance2(q, node.lo, node.hi) >= d2[k - 1]) return;
   if (node.left < 0) {
-    if (node_id == skip_node) return;
     for (int i = node.begin; i < node.end; ++i) {
-      if (i == self) continue;
-      const float d = (pts_[i] - q).squaredNorm();
-      if (*count == k && d >= d2[k - 1]) continue;
+      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
+      const float d = dx * dx + dy * dy + dz * dz;
+      if ((*count == k && d >= d2[k - 1]) || i == self) continue;
       int j = *count < k ? (*count)++ : k - 1;  // insertion into the sorted list
       while (j > 0 && d2[j - 1] > d) {
         d2[j] = d2[j - 1];
-        who[j] = who[j - 1];
         --j;
       }
       d2[j] = d;
-      who[j] = i;
     }
     return;
   }
-  const float dl = boxDistance2(q, nodes_[node.left].lo, nodes_[node.left].hi);
-  const float dr = boxDistance2(q, nodes_[node.right].lo, nodes_[node.right].hi);
-  if (dl <= dr) {
-    search(node.left, q, self, k, d2, who, count, skip_node);
-    search(node.right, q, self, k, d2, who, count, skip_node);
-  } else {
-    search(node.right, q, self, k, d2, who, count, skip_node);
-    search(node.left, q, self, k, d2, who, count, skip_node);
+  // Children nearer first; a child is entered only while it can still hold a closer point.
+  const Node& l = nodes_[node.left];
+  const Node& r = nodes_[node.right];
+  const float dl = boxDistance2(q, l.lo, l.hi);
+  const float dr = boxDistance2(q, r.lo, r.hi);
+  const bool left_first = dl <= dr;
+  const float d_first = left_first ? dl : dr, d_second = left_first ? dr : dl;
+  if (*count < k || d_first < d2[k - 1]) {
+    search(left_first ? node.left : node.right, q, self, k, d2, count);
+  }
+  if (*count < k || d_second < d2[k - 1]) {
+    search(left_first ? node.right : node.left, q, self, k, d2, count);
   }
 }
 
-std::vector<double> KnnTree::meanNeighbourDistances(int k, std::vector<int>* neighbours) const {
-  const int n = static_cast<int>(pts_.size());
+std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
+  const int n = static_cast<int>(x_.size());
   std::vector<double> out(n, 0.0);
   k = std::min(k, n - 1);
-  if (neighbours) neighbours->assign(static_cast<std::size_t>(std::max(k, 0)) * n, -1);
   if (k <= 0) return out;
   std::vector<float> d2(k);
-  std::vector<int> who(k);
   for (int t = 0; t < n; ++t) {  // tree order: neighbouring queries touch the same memory
+    // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
+    // stopping once the ball through the k-th neighbour lies inside the current subtree.
+    const float q[3] = {x_[t], y_[t], z_[t]};
     int count = 0;
-    const int leaf = leaf_of_[t];
-    search(leaf, pts_[t], t, k, d2.data(), who.data(), &count, -1);  // own leaf: tight bound
-    search(0, pts_[t], t, k, d2.data(), who.data(), &count, leaf);
+    int node = leaf_of_[t];
+    search(node, q, t, k, d2.data(), &count);
+    while (nodes_[node].parent >= 0) {
+      const Node& parent = nodes_[nodes_[node].parent];
+      const Node& sibling = nodes_[parent.left == node ? parent.right : parent.left];
+      if (count < k || boxDistance2(q, sibling.lo, sibling.hi) < d2[k - 1]) {
+        search(parent.left == node ? parent.right : parent.left, q, t, k, d2.data(), &count);
+      }
+      node = nodes_[node].parent;
+      if (count == k) {
+        float inside = q[0] - parent.lo[0];
+        for (int a = 0; a < 3; ++a) {
+          inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
+        }
+        if (inside > 0.f && inside * inside >= d2[k - 1]) break;
+      }
+    }
     double sum = 0.0;
     for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
     out[id_[t]] = sum / count;
-    if (neighbours) {
-      int* row = neighbours->data() + static_cast<std::size_t>(id_[t]) * k;
-      for (int j = 0; j < count; ++j) row[j] = id_[who[j]];
-    }
   }
   return out;
 }
