@@ -24,5 +24,10 @@ LAUNCH=$!
 # (current) sweep and its results stay on screen.
 sleep "${NOVELTY_SCREENSHOT_WAIT:-25}"
 import -window root "$OUT_PNG"
+# Keep the 3D view only (rviz's panel is on the left) with a palette, to keep the PNG small;
+# NOVELTY_SCREENSHOT_FULL=1 keeps the whole window.
+if [ "${NOVELTY_SCREENSHOT_FULL:-0}" != 1 ]; then
+  /usr/bin/convert "$OUT_PNG" -crop 900x708+364+62 +repage -colors 192 "$OUT_PNG"
+fi
 log "screenshot saved to $OUT_PNG"
 echo "$OUT_PNG"
