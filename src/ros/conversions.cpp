@@ -74,8 +74,7 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg) {
   const std::uint64_t min_row = width * msg.point_step;
   if (msg.row_step < min_row) {
     throw std::invalid_argument("PointCloud2 row_step " + std::to_string(msg.row_step) +
-                                " is smaller than width * point_step = " +
-                                std::to_string(min_row));
+                                " is smaller than width * point_step = " + std::to_string(min_row));
   }
   // The last row only needs width * point_step bytes, but a conforming message carries
   // height * row_step; accept the shorter form, refuse anything shorter than that.
@@ -83,8 +82,7 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg) {
   if (msg.data.size() < needed) {
     throw std::invalid_argument("PointCloud2 data has " + std::to_string(msg.data.size()) +
                                 " bytes, its width " + std::to_string(width) + " x height " +
-                                std::to_string(height) + " layout needs " +
-                                std::to_string(needed));
+                                std::to_string(height) + " layout needs " + std::to_string(needed));
   }
   const bool swap = static_cast<bool>(msg.is_bigendian) != hostIsBigEndian();
   cloud.resize(n);
@@ -106,8 +104,7 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg) {
 }
 
 sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::vector<int>& labels,
-                                               const std_msgs::Header& header,
-                                               bool only_labelled) {
+                                               const std_msgs::Header& header, bool only_labelled) {
   if (labels.size() != cloud.size()) {
     throw std::invalid_argument("labels (" + std::to_string(labels.size()) +
                                 ") do not match the cloud (" + std::to_string(cloud.size()) +

@@ -1,9 +1,9 @@
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 
-#include <pluginlib/class_list_macros.hpp>
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -98,8 +98,8 @@ void NoveltyDetectorNodelet::onInit() {
   gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
   novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
 
-  capture_srv_ = pnh.advertiseService("capture_reference",
-                                      &NoveltyDetectorNodelet::onCaptureReference, this);
+  capture_srv_ =
+      pnh.advertiseService("capture_reference", &NoveltyDetectorNodelet::onCaptureReference, this);
   set_srv_ = pnh.advertiseService("set_reference", &NoveltyDetectorNodelet::onSetReference, this);
   save_srv_ =
       pnh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
@@ -161,8 +161,8 @@ void NoveltyDetectorNodelet::onTransformFailure(
     ++tf_failures_;
   }
   NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep from frame '%s' at %.3f dropped: %s (to '%s')",
-                        msg->header.frame_id.c_str(), msg->header.stamp.toSec(),
-                        reasonName(reason), node_params_.fixed_frame.c_str());
+                        msg->header.frame_id.c_str(), msg->header.stamp.toSec(), reasonName(reason),
+                        node_params_.fixed_frame.c_str());
 }
 
 void NoveltyDetectorNodelet::onTransformable(const sensor_msgs::PointCloud2::ConstPtr& msg) {
@@ -187,7 +187,13 @@ void NoveltyDetectorNodelet::workerLoop() {
       if (stop_) return;
       msg.swap(pending_);
     }
-    processSweep(msg);
+    try {
+      processSweep(msg);
+    } catch (...) {  // processSweep catches std::exception; never let the thread die
+      NODELET_ERROR("unexpected non-standard exception while processing a sweep");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++failed_;
+    }
   }
 }
 
@@ -212,8 +218,8 @@ Cloud NoveltyDetectorNodelet::toFixedFrame(const sensor_msgs::PointCloud2& msg,
   std::string why;
   if (wait_for_transform &&
       !tf_buffer_->canTransform(node_params_.fixed_frame, frame, msg.header.stamp, &why)) {
-    throw std::runtime_error("no transform from '" + frame + "' to '" +
-                             node_params_.fixed_frame + "': " + why);
+    throw std::runtime_error("no transform from '" + frame + "' to '" + node_params_.fixed_frame +
+                             "': " + why);
   }
   const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
       tf_buffer_->lookupTransform(node_params_.fixed_frame, frame, msg.header.stamp));
@@ -229,8 +235,8 @@ Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& clo
                                       const ros::Time& stamp) const {
   Eigen::Vector3d lo, hi;
   if (!finiteBounds(cloud, lo, hi)) {
-    throw std::invalid_argument("the sweep has no finite point (" +
-                                std::to_string(cloud.size()) + " points)");
+    throw std::invalid_argument("the sweep has no finite point (" + std::to_string(cloud.size()) +
+                                " points)");
   }
   // Compare only the part of the map this sweep can see: its extent plus a margin, and
   // within the sensor's range of its origin when the sensor frame is known.
@@ -266,10 +272,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
       finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
     }
     if (finite == 0) {
-      throw std::invalid_argument(cloud.empty() ? "the sweep is empty"
-                                                : "the sweep has no finite point (" +
-                                                      std::to_string(cloud.size()) +
-                                                      " points, all NaN/inf)");
+      throw std::invalid_argument(cloud.empty()
+                                      ? "the sweep is empty"
+                                      : "the sweep has no finite point (" +
+                                            std::to_string(cloud.size()) + " points, all NaN/inf)");
     }
   } catch (const std::exception& e) {
     warnThrottled("rejected", std::string("sweep rejected: ") + e.what());
@@ -284,8 +290,8 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   if (capture_next_.exchange(false)) {
     try {
       reference_->setMap(cloud);
-      NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)",
-                   header.stamp.toSec(), cloud.size());
+      NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
+                   cloud.size());
     } catch (const std::exception& e) {
       NODELET_ERROR("capturing the reference failed: %s", e.what());
       std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -320,10 +326,9 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     for (int l : result.labels) novel_points += l > 0;
     std::ostringstream summary;
     summary << result.segments.size() << " novelties, " << novel_points << " novel points, "
-            << result.superquadrics.size() << " superquadrics, EMD " << result.emd_before
-            << " -> " << result.emd_after;
-    NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(),
-                  ms);
+            << result.superquadrics.size() << " superquadrics, EMD " << result.emd_before << " -> "
+            << result.emd_after;
+    NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++processed_;
     last_processing_ms_ = ms;
@@ -358,8 +363,8 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
     const CloudFile file = loadCloudFile(req.path);
     reference_->setMap(file.cloud);
     res.success = true;
-    res.message = "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) +
-                  " points)";
+    res.message =
+        "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) + " points)";
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
@@ -396,8 +401,7 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     const Result result = detect(cloud, req.cloud.header.frame_id, req.cloud.header.stamp);
     std_msgs::Header header = req.cloud.header;
     header.frame_id = node_params_.fixed_frame;
-    const double s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     res.novelties = toNoveltyArray(result, header, s);
     res.labelled_cloud = toLabelledPointCloud2(cloud, result.labels, header, false);
     res.success = true;
@@ -410,8 +414,7 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
   return true;
 }
 
-void NoveltyDetectorNodelet::warnThrottled(const std::string& category,
-                                           const std::string& text) {
+void NoveltyDetectorNodelet::warnThrottled(const std::string& category, const std::string& text) {
   const ros::WallTime now = ros::WallTime::now();
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);

@@ -15,13 +15,20 @@ namespace {
 
 std::string typeName(const XmlRpc::XmlRpcValue& v) {
   switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: return "bool";
-    case XmlRpc::XmlRpcValue::TypeInt: return "int";
-    case XmlRpc::XmlRpcValue::TypeDouble: return "double";
-    case XmlRpc::XmlRpcValue::TypeString: return "string";
-    case XmlRpc::XmlRpcValue::TypeArray: return "list";
-    case XmlRpc::XmlRpcValue::TypeStruct: return "dict";
-    default: return "unsupported type";
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return "bool";
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return "int";
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      return "double";
+    case XmlRpc::XmlRpcValue::TypeString:
+      return "string";
+    case XmlRpc::XmlRpcValue::TypeArray:
+      return "list";
+    case XmlRpc::XmlRpcValue::TypeStruct:
+      return "dict";
+    default:
+      return "unsupported type";
   }
 }
 
@@ -97,7 +104,8 @@ Params loadRosParams(const ros::NodeHandle& nh) {
 
 void NodeParams::validate() const {
   if (fixed_frame.empty()) throw std::invalid_argument("parameter 'fixed_frame' must not be empty");
-  if (!std::isfinite(tile_size_m)) throw std::invalid_argument("parameter 'tile_size_m' must be finite");
+  if (!std::isfinite(tile_size_m))
+    throw std::invalid_argument("parameter 'tile_size_m' must be finite");
   if (!(crop_margin_m >= 0.0) || !std::isfinite(crop_margin_m)) {
     throw std::invalid_argument("parameter 'crop_margin_m' must be >= 0, got " +
                                 std::to_string(crop_margin_m));

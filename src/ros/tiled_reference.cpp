@@ -6,9 +6,10 @@
 
 namespace novelty_detection {
 
-TiledReference::TiledReference(const Params& params, double tile_size_m,
-                               std::size_t cache_size)
-    : params_(params), tile_size_m_(tile_size_m), cache_size_(std::max<std::size_t>(cache_size, 1)) {
+TiledReference::TiledReference(const Params& params, double tile_size_m, std::size_t cache_size)
+    : params_(params),
+      tile_size_m_(tile_size_m),
+      cache_size_(std::max<std::size_t>(cache_size, 1)) {
   params_.validate();
 }
 
@@ -66,8 +67,8 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
     const double span = double(b.first - a.first + 1) * double(b.second - a.second + 1);
     if (span > static_cast<double>(tiles_.size())) {
       for (const auto& t : tiles_) {
-        if (t.first.first >= a.first && t.first.first <= b.first &&
-            t.first.second >= a.second && t.first.second <= b.second) {
+        if (t.first.first >= a.first && t.first.first <= b.first && t.first.second >= a.second &&
+            t.first.second <= b.second) {
           key.push_back(t.first);
         }
       }

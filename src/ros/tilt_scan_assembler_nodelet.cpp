@@ -1,8 +1,8 @@
 #include "novelty_detection/ros/tilt_scan_assembler_nodelet.h"
 
-#include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include <cmath>
 #include <exception>
@@ -51,22 +51,24 @@ void TiltScanAssemblerNodelet::onInit() {
   tf_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
       *tf_buffer_, fixed_frame_, 50, nh);
   tf_filter_->registerCallback(&TiltScanAssemblerNodelet::onScan, this);
-  tf_filter_->registerFailureCallback(
-      [this](const sensor_msgs::LaserScan::ConstPtr& scan,
-             tf2_ros::filter_failure_reasons::FilterFailureReason) {
-        NODELET_WARN_THROTTLE(kWarnPeriodS, "scan line from frame '%s' dropped: no transform "
-                              "to '%s'", scan->header.frame_id.c_str(), fixed_frame_.c_str());
-      });
+  tf_filter_->registerFailureCallback([this](const sensor_msgs::LaserScan::ConstPtr& scan,
+                                             tf2_ros::filter_failure_reasons::FilterFailureReason) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS,
+                          "scan line from frame '%s' dropped: no transform "
+                          "to '%s'",
+                          scan->header.frame_id.c_str(), fixed_frame_.c_str());
+  });
   scan_sub_ = pnh.subscribe<sensor_msgs::LaserScan>(
       "scan", 50, [this](const sensor_msgs::LaserScan::ConstPtr& scan) { tf_filter_->add(scan); });
-  idle_timer_ = pnh.createWallTimer(ros::WallDuration(idle_timeout_ / 4), [this](const ros::WallTimerEvent&) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (lines_ > 0 && (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
-      publishSweep();
-      have_pitch_ = false;
-      direction_ = 0;
-    }
-  });
+  idle_timer_ =
+      pnh.createWallTimer(ros::WallDuration(idle_timeout_ / 4), [this](const ros::WallTimerEvent&) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (lines_ > 0 && (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
+          publishSweep();
+          have_pitch_ = false;
+          direction_ = 0;
+        }
+      });
   NODELET_INFO("tilt scan assembler: %s -> %s in '%s'", scan_sub_.getTopic().c_str(),
                sweep_pub_.getTopic().c_str(), fixed_frame_.c_str());
 }
@@ -90,16 +92,15 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
     const Eigen::Isometry3d T_fixed_laser = tf2::transformToEigen(
         tf_buffer_->lookupTransform(fixed_frame_, scan->header.frame_id, stamp));
     const Eigen::Isometry3d T_parent_laser =
-        tilt_parent_frame_ == fixed_frame_
-            ? T_fixed_laser
-            : tf2::transformToEigen(
-                  tf_buffer_->lookupTransform(tilt_parent_frame_, scan->header.frame_id, stamp));
+        tilt_parent_frame_ == fixed_frame_ ? T_fixed_laser
+                                           : tf2::transformToEigen(tf_buffer_->lookupTransform(
+                                                 tilt_parent_frame_, scan->header.frame_id, stamp));
 
     // Close the sweep when the tilt reverses or it has lasted too long; time going
     // backwards (a bag restarting) also starts a new sweep.
     const double pitch = pitchOf(T_parent_laser.linear());
-    bool close = lines_ > 0 && (stamp < last_stamp_ ||
-                                (stamp - sweep_start_).toSec() > max_sweep_duration_);
+    bool close =
+        lines_ > 0 && (stamp < last_stamp_ || (stamp - sweep_start_).toSec() > max_sweep_duration_);
     if (have_pitch_) {
       const double step = pitch - last_pitch_;
       if (std::abs(step) > min_tilt_step_rad_) {
@@ -117,9 +118,10 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
       const float r = scan->ranges[i];
       if (!std::isfinite(r) || r < scan->range_min || r > scan->range_max) continue;
       const double a = scan->angle_min + static_cast<double>(i) * scan->angle_increment;
-      const Eigen::Vector3d p = T_fixed_laser * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0);
-      sweep_.push_back(PointT(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                              static_cast<float>(p.z())));
+      const Eigen::Vector3d p =
+          T_fixed_laser * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0);
+      sweep_.push_back(
+          PointT(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     }
     ++lines_;
     last_stamp_ = stamp;

@@ -45,8 +45,8 @@ int main(int argc, char** argv) {
     try {
       Cloud cloud = novelty_detection::fromPointCloud2(*msg);
       const Eigen::Isometry3f T =
-          tf2::transformToEigen(buffer.lookupTransform(fixed_frame, msg->header.frame_id,
-                                                       msg->header.stamp))
+          tf2::transformToEigen(
+              buffer.lookupTransform(fixed_frame, msg->header.frame_id, msg->header.stamp))
               .cast<float>();
       std::lock_guard<std::mutex> lock(mutex);
       for (auto p : cloud) {

@@ -5,10 +5,10 @@
 #include <rosgraph_msgs/Log.h>
 #include <std_srvs/Trigger.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <mutex>
-#include <unistd.h>
 #include <vector>
 
 #include "novelty_detection/Detect.h"
@@ -29,14 +29,18 @@ class DetectorTest : public ::testing::Test {
           std::lock_guard<std::mutex> lock(mutex_);
           results_.push_back(*m);
         });
-    log_sub_ = nh_.subscribe<rosgraph_msgs::Log>(
-        "/rosout", 100, [this](const rosgraph_msgs::Log::ConstPtr& m) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          if (m->level >= rosgraph_msgs::Log::WARN) warnings_.push_back(m->msg);
-        });
-    ASSERT_TRUE(waitFor([this] { return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
-                                        log_sub_.getNumPublishers() > 0; },
-                        30.0))
+    log_sub_ = nh_.subscribe<rosgraph_msgs::Log>("/rosout", 100,
+                                                 [this](const rosgraph_msgs::Log::ConstPtr& m) {
+                                                   std::lock_guard<std::mutex> lock(mutex_);
+                                                   if (m->level >= rosgraph_msgs::Log::WARN)
+                                                     warnings_.push_back(m->msg);
+                                                 });
+    ASSERT_TRUE(waitFor(
+        [this] {
+          return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
+                 log_sub_.getNumPublishers() > 0;
+        },
+        30.0))
         << "detector not connected";
     ASSERT_TRUE(ros::service::waitForService("/detector/capture_reference", 30000));
     ASSERT_TRUE(ros::service::waitForService("/detector/detect", 30000));
@@ -90,7 +94,9 @@ class DetectorTest : public ::testing::Test {
     novelty_detection::SaveReference save;
     save.request.path = tmpPath("captured.pcd");
     ASSERT_TRUE(waitFor(
-        [&] { return ros::service::call("/detector/save_reference", save) && save.response.success; },
+        [&] {
+          return ros::service::call("/detector/save_reference", save) && save.response.success;
+        },
         20.0))
         << save.response.message;
     EXPECT_EQ(novelty_detection::loadCloud(save.request.path).size(), room_.size());
@@ -155,12 +161,14 @@ TEST_F(DetectorTest, BadSweepsAreRefusedAndTheNextGoodOneIsServed) {
   ASSERT_TRUE(goodSweepIsServed());
 
   novelty_detection::Cloud empty;
-  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(empty, "map", ros::Time::now()), "the sweep is empty"));
+  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(empty, "map", ros::Time::now()),
+                                  "the sweep is empty"));
   EXPECT_TRUE(goodSweepIsServed());
 
   novelty_detection::Cloud nans;
   for (int i = 0; i < 100; ++i) nans.push_back(novelty_detection::PointT(NAN, NAN, NAN));
-  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(nans, "map", ros::Time::now()), "no finite point"));
+  EXPECT_TRUE(
+      publishUntilWarning(test_helpers::toMsg(nans, "map", ros::Time::now()), "no finite point"));
   EXPECT_TRUE(goodSweepIsServed());
 
   sensor_msgs::PointCloud2 no_x = test_helpers::toMsg(room_, "map", ros::Time::now());

@@ -11,7 +11,8 @@ std::string statusOf(const std::string& node) {
   ros::NodeHandle nh;
   std::string status;
   ros::Subscriber sub = nh.subscribe<std_msgs::String>(
-      "/" + node + "/status", 1, [&](const std_msgs::String::ConstPtr& msg) { status = msg->data; });
+      "/" + node + "/status", 1,
+      [&](const std_msgs::String::ConstPtr& msg) { status = msg->data; });
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(30.0);
   while (status.empty() && ros::WallTime::now() < deadline && ros::ok()) {
     ros::spinOnce();

@@ -3,10 +3,10 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
+#include <unistd.h>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
-#include <unistd.h>
 
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/SetReference.h"
@@ -32,9 +32,12 @@ class NoveltyScenes : public ::testing::Test {
           std::lock_guard<std::mutex> lock(mutex_);
           labelled_ = m;
         });
-    ASSERT_TRUE(waitFor([this] { return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
-                                        labelled_sub_.getNumPublishers() > 0; },
-                        30.0));
+    ASSERT_TRUE(waitFor(
+        [this] {
+          return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
+                 labelled_sub_.getNumPublishers() > 0;
+        },
+        30.0));
     ASSERT_TRUE(ros::service::waitForService("/detector/set_reference", 30000));
   }
 

@@ -26,9 +26,12 @@ TEST(TiltAssembler, OneSweepPerTiltDirection) {
         EXPECT_EQ(m->header.frame_id, "map");
         sweeps.push_back(novelty_detection::fromPointCloud2(*m));
       });
-  ASSERT_TRUE(waitFor([&] { return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
-                                   sub.getNumPublishers() > 0; },
-                      30.0));
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
+               sub.getNumPublishers() > 0;
+      },
+      30.0));
 
   std::vector<double> pitches;
   for (int k = 0; k <= 20; ++k) pitches.push_back(-0.3 + 0.03 * k);
@@ -70,7 +73,8 @@ TEST(TiltAssembler, OneSweepPerTiltDirection) {
   double max_err = 0.0, min_z = 1e9, max_z = -1e9;
   for (const auto& s : sweeps) {
     for (const auto& p : s) {
-      max_err = std::max(max_err, std::abs(std::sqrt(p.x * p.x + p.y * p.y + (p.z - 1) * (p.z - 1)) - 2.0));
+      max_err = std::max(max_err,
+                         std::abs(std::sqrt(p.x * p.x + p.y * p.y + (p.z - 1) * (p.z - 1)) - 2.0));
       min_z = std::min<double>(min_z, p.z);
       max_z = std::max<double>(max_z, p.z);
     }

@@ -1,4 +1,5 @@
-// Superquadric marker meshes are closed and wound outwards (rviz shades by winding); the tiled reference caches models.
+// Superquadric marker meshes are closed and wound outwards (rviz shades by winding); the tiled
+// reference caches models.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -92,8 +93,7 @@ TEST(TiledReference, CachesOneModelPerSetOfTiles) {
       map.push_back(PointT(0.1f * i, 0.5f + 0.01f * std::sin(0.7f * i * j), 0.2f + 0.1f * j));
     }
   }
-  EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()),
-               std::logic_error);
+  EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()), std::logic_error);
   ref.setMap(map);
   const auto a = ref.pipelineFor(Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(1.5, 1, 1));
   EXPECT_EQ(a->referenceCloud().size(), 200u);  // tile x in [0, 2)

@@ -22,8 +22,7 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg);
 /// (the output is then organised like `cloud`: height 1, width = cloud size).
 /// Throws std::invalid_argument when labels.size() != cloud.size().
 sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::vector<int>& labels,
-                                               const std_msgs::Header& header,
-                                               bool only_labelled);
+                                               const std_msgs::Header& header, bool only_labelled);
 
 /// Plain x, y, z PointCloud2 of a Cloud (for the reference map and assembled sweeps).
 sensor_msgs::PointCloud2 toPointCloud2(const Cloud& cloud, const std_msgs::Header& header);

@@ -38,8 +38,7 @@ class TiledReference {
   /// The pipeline whose reference is the map cropped to the tiles overlapping the box
   /// [lo, hi] (x, y only). Throws std::logic_error without a map, std::runtime_error when
   /// no map point lies in that box, and whatever Pipeline::setReference throws.
-  std::shared_ptr<const Pipeline> pipelineFor(const Eigen::Vector3d& lo,
-                                              const Eigen::Vector3d& hi);
+  std::shared_ptr<const Pipeline> pipelineFor(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
   std::size_t cachedModels() const;
   std::size_t modelsBuilt() const;

@@ -33,11 +33,11 @@ class TiltScanAssemblerNodelet : public nodelet::Nodelet {
   void publishSweep();
 
   std::string fixed_frame_ = "map";
-  std::string tilt_parent_frame_;       // "" = the fixed frame
-  double max_sweep_duration_ = 10.0;    // [s]
-  double min_tilt_step_rad_ = 1e-4;     // pitch changes below this are no motion
-  int min_lines_ = 5;                   // shorter sweeps are not published
-  double idle_timeout_ = 1.0;           // [s, wall] close the sweep when lines stop coming
+  std::string tilt_parent_frame_;     // "" = the fixed frame
+  double max_sweep_duration_ = 10.0;  // [s]
+  double min_tilt_step_rad_ = 1e-4;   // pitch changes below this are no motion
+  int min_lines_ = 5;                 // shorter sweeps are not published
+  double idle_timeout_ = 1.0;         // [s, wall] close the sweep when lines stop coming
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
