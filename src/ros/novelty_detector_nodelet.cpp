@@ -48,6 +48,22 @@ bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) 
   return any;
 }
 
+/// The file's cloud with its stored viewpoint (PCD VIEWPOINT) as sensor origin.
+Cloud withViewpoint(const CloudFile& file) {
+  Cloud cloud = file.cloud;
+  cloud.sensor_origin_.head<3>() = file.T_frame_sensor.translation().cast<float>();
+  cloud.sensor_origin_[3] = 0.0f;
+  cloud.sensor_orientation_ = Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
+  return cloud;
+}
+
+Eigen::Isometry3d viewpointOf(const Cloud& cloud) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = cloud.sensor_origin_.head<3>().cast<double>();
+  T.linear() = cloud.sensor_orientation_.normalized().toRotationMatrix().cast<double>();
+  return T;
+}
+
 }  // namespace
 
 NoveltyDetectorNodelet::NoveltyDetectorNodelet() = default;
@@ -200,7 +216,7 @@ void NoveltyDetectorNodelet::workerLoop() {
 void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
   try {
     const CloudFile file = loadCloudFile(path);
-    reference_->setMap(file.cloud);
+    reference_->setMap(withViewpoint(file));
     NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
   } catch (const std::exception& e) {
     NODELET_ERROR("cannot use reference file: %s", e.what());
@@ -289,6 +305,20 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   header.frame_id = node_params_.fixed_frame;
   if (capture_next_.exchange(false)) {
     try {
+      // The sensor pose becomes the reference's viewpoint (free-space check).
+      const std::string sensor_frame = node_params_.sensor_frame.empty()
+                                           ? msg->header.frame_id
+                                           : node_params_.sensor_frame;
+      if (sensor_frame != node_params_.fixed_frame) {
+        try {
+          const Eigen::Isometry3d T = tf2::transformToEigen(tf_buffer_->lookupTransform(
+              node_params_.fixed_frame, sensor_frame, msg->header.stamp));
+          cloud.sensor_origin_.head<3>() = T.translation().cast<float>();
+          cloud.sensor_orientation_ = Eigen::Quaternionf(T.linear().cast<float>());
+        } catch (const tf2::TransformException& e) {
+          NODELET_WARN("captured reference without a viewpoint: %s", e.what());
+        }
+      }
       reference_->setMap(cloud);
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
@@ -361,7 +391,7 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     const CloudFile file = loadCloudFile(req.path);
-    reference_->setMap(file.cloud);
+    reference_->setMap(withViewpoint(file));
     res.success = true;
     res.message =
         "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) + " points)";
@@ -380,7 +410,7 @@ bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     if (!reference_->hasMap()) throw std::runtime_error("there is no reference to save");
     const Cloud map = reference_->map();
-    saveCloudAtomic(req.path, map);
+    saveCloudAtomic(req.path, map, viewpointOf(map));
     res.success = true;
     res.message = "saved " + std::to_string(map.size()) + " points to " + req.path;
     NODELET_INFO("%s", res.message.c_str());

@@ -90,6 +90,9 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
     }
   }
   Cloud crop;
+  // The map's viewpoint (if known) feeds the pipeline's free-space check.
+  crop.sensor_origin_ = map_->sensor_origin_;
+  crop.sensor_orientation_ = map_->sensor_orientation_;
   for (const auto& t : key) {
     for (int i : tiles_.at(t)) crop.push_back((*map_)[i]);
   }

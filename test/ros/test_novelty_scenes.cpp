@@ -45,7 +45,7 @@ class NoveltyScenes : public ::testing::Test {
   // the labels of the labelled cloud (input order).
   std::vector<std::uint32_t> run(const sim::ScenePair& scene) {
     const std::string path = "/tmp/novelty_scene_" + std::to_string(getpid()) + ".pcd";
-    saveCloudAtomic(path, scene.reference);
+    saveCloudAtomic(path, scene.reference, scene.T_world_sensor_reference);  // with viewpoint
     SetReference set;
     set.request.path = path;
     EXPECT_TRUE(ros::service::call("/detector/set_reference", set));
