@@ -146,10 +146,12 @@ struct SegmentationParams {
   double novelty_distance_factor = 6.0; ///< tau = median + factor * 1.4826 MAD of NN distances
   double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
   double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
+  double merge_gap_factor = 4.0;        ///< pieces of one Gaussian this close merge
   int min_segment_points = 20;          ///< smaller segments are dropped
   double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
   double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
+  bool hidden_unexplained = false; ///< points hidden from the map may be novel if unexplained
 
   template <class F>
   void visit(F&& f) {
@@ -161,6 +163,9 @@ struct SegmentationParams {
     f("min_novelty_distance_m", min_novelty_distance_m, "lower bound of tau [m]");
     f("link_factor", link_factor,
       "novel points closer than link_factor * their median 4-NN spacing join one segment");
+    f("merge_gap_factor", merge_gap_factor,
+      "connected pieces mostly owned by the same novel Gaussian merge into one segment when "
+      "their bounding boxes are closer than merge_gap_factor link radii");
     f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
     f("map_likelihood_quantile", map_likelihood_quantile,
       "a point whose density under the reference mixture exceeds this quantile of the map's "
@@ -170,6 +175,9 @@ struct SegmentationParams {
       "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin)");
     f("visibility_angle_deg", visibility_angle_deg,
       "half-angle of the cone around a ray in which map returns are compared [deg]");
+    f("hidden_unexplained", hidden_unexplained,
+      "a point the reference could not see is still novel when the reference mixture does not "
+      "explain it (density below the map_likelihood_quantile of the map's own points)");
   }
   void validate() const;
 };

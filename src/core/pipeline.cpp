@@ -287,35 +287,66 @@ Result Pipeline::detect(const Cloud& current) const {
     if (!far_points.empty()) responsibilities(ref.gmm, xf, &ll);
     const double max_angle = params_.segmentation.visibility_angle_deg * M_PI / 180.0;
     for (std::size_t i = 0; i < far_points.size(); ++i) {
-      if (ll[i] >= ref.explained_log_density) continue;
-      // Free space: only space the reference saw through can hold a new object; surfaces
-      // the reference could not see (revealed behind a moved object, out of its view) are
-      // not novelties.
-      if (!ref.visibility.empty() &&
-          !ref.visibility.seenThrough(point3f(current[far_points[i]]), tau, max_angle))
+      // Free space: a new object occupies space the reference saw through. A point the
+      // reference could not see (revealed behind a moved object, out of its view) is novel
+      // only when the map's mixture does not explain it either (quantile test), e.g. a door
+      // leaf swung into space the old leaf hid, but not a wall revealed behind a moved box.
+      const bool seen_through =
+          ref.visibility.empty() ||
+          ref.visibility.seenThrough(point3f(current[far_points[i]]), tau, max_angle);
+      const bool explained = ll[i] >= ref.explained_log_density;
+      if (ref.visibility.empty() ? explained : (!seen_through && explained)) continue;
+      if (!ref.visibility.empty() && !seen_through && !params_.segmentation.hidden_unexplained)
         continue;
       novel_points.push_back(far_points[i]);
       owner.push_back(far_owner[i]);
     }
   }
   result.point_counts.emplace_back("novel_points", novel_points.size());
-  // Connected pieces of novel points; pieces whose points mostly belong to the same novel
-  // Gaussian are one object seen through the gaps between tilt lines: merge them.
-  std::vector<Indices> pieces =
-      linkComponents(current, novel_points, params_.segmentation.link_factor, 1);
-  std::vector<Indices> by_gaussian(result.current_gmm.size());
-  for (const Indices& piece : pieces) {
+  // Connected pieces of novel points. Pieces whose points mostly belong to the same novel
+  // Gaussian and whose bounding boxes lie within merge_gap_factor link radii are one object
+  // seen through the gaps between tilt lines: merge them (union-find).
+  double link_radius = 0.0;
+  std::vector<Indices> pieces = linkComponents(
+      current, novel_points, params_.segmentation.link_factor, 1, &link_radius);
+  const std::size_t np = pieces.size();
+  std::vector<int> dominant(np), parent(np);
+  std::vector<Eigen::Vector3f> lo(np), hi(np);
+  for (std::size_t a = 0; a < np; ++a) {
     std::vector<int> votes(result.current_gmm.size(), 0);
-    for (int i : piece) {
+    lo[a].setConstant(std::numeric_limits<float>::infinity());
+    hi[a] = -lo[a];
+    for (int i : pieces[a]) {
       const auto it = std::lower_bound(novel_points.begin(), novel_points.end(), i);
       ++votes[owner[it - novel_points.begin()]];
+      lo[a] = lo[a].cwiseMin(point3f(current[i]));
+      hi[a] = hi[a].cwiseMax(point3f(current[i]));
     }
-    const int k = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
-    by_gaussian[k].insert(by_gaussian[k].end(), piece.begin(), piece.end());
+    dominant[a] = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+    parent[a] = static_cast<int>(a);
+  }
+  auto find = [&parent](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  const float gap = static_cast<float>(params_.segmentation.merge_gap_factor * link_radius);
+  for (std::size_t a = 0; a < np; ++a) {
+    for (std::size_t b = a + 1; b < np; ++b) {
+      if (dominant[a] != dominant[b]) continue;
+      const Eigen::Vector3f sep =
+          (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
+      if (sep.norm() <= gap) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+    }
+  }
+  std::vector<Indices> merged(np);
+  for (std::size_t a = 0; a < np; ++a) {
+    Indices& m = merged[find(static_cast<int>(a))];
+    m.insert(m.end(), pieces[a].begin(), pieces[a].end());
   }
   std::vector<Indices> comps;
-  for (Indices& c : by_gaussian) {
-    if (static_cast<int>(c.size()) < params_.segmentation.min_segment_points) continue;
+  for (Indices& c : merged) {
+    if (c.empty() || static_cast<int>(c.size()) < params_.segmentation.min_segment_points)
+      continue;
     std::sort(c.begin(), c.end());
     comps.push_back(std::move(c));
   }
