@@ -306,9 +306,8 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   if (capture_next_.exchange(false)) {
     try {
       // The sensor pose becomes the reference's viewpoint (free-space check).
-      const std::string sensor_frame = node_params_.sensor_frame.empty()
-                                           ? msg->header.frame_id
-                                           : node_params_.sensor_frame;
+      const std::string sensor_frame =
+          node_params_.sensor_frame.empty() ? msg->header.frame_id : node_params_.sensor_frame;
       if (sensor_frame != node_params_.fixed_frame) {
         try {
           const Eigen::Isometry3d T = tf2::transformToEigen(tf_buffer_->lookupTransform(
