@@ -143,6 +143,21 @@ sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::ve
   return out;
 }
 
+Cloud withViewpoint(const CloudFile& file) {
+  Cloud cloud = file.cloud;
+  cloud.sensor_origin_.head<3>() = file.T_frame_sensor.translation().cast<float>();
+  cloud.sensor_origin_[3] = 0.0f;
+  cloud.sensor_orientation_ = Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
+  return cloud;
+}
+
+Eigen::Isometry3d viewpointOf(const Cloud& cloud) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = cloud.sensor_origin_.head<3>().cast<double>();
+  T.linear() = cloud.sensor_orientation_.normalized().toRotationMatrix().cast<double>();
+  return T;
+}
+
 sensor_msgs::PointCloud2 toPointCloud2(const Cloud& cloud, const std_msgs::Header& header) {
   sensor_msgs::PointCloud2 out;
   out.header = header;

@@ -152,3 +152,14 @@ TEST(Conversions, LabelledCloudRoundTrips) {
   }
   EXPECT_THROW(toLabelledPointCloud2(cloud, {1, 2}, header, false), std::invalid_argument);
 }
+
+TEST(Conversions, ViewpointRoundTrips) {
+  novelty_detection::CloudFile file;
+  file.cloud.push_back(novelty_detection::PointT(1, 2, 3));
+  file.T_frame_sensor.translation() = Eigen::Vector3d(0.5, -1.0, 1.2);
+  file.T_frame_sensor.linear() =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Cloud cloud = novelty_detection::withViewpoint(file);
+  EXPECT_FLOAT_EQ(cloud.sensor_origin_[2], 1.2f);
+  EXPECT_TRUE(novelty_detection::viewpointOf(cloud).isApprox(file.T_frame_sensor, 1e-6));
+}

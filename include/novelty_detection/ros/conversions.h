@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "novelty_detection/cloud_io.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -26,5 +27,11 @@ sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::ve
 
 /// Plain x, y, z PointCloud2 of a Cloud (for the reference map and assembled sweeps).
 sensor_msgs::PointCloud2 toPointCloud2(const Cloud& cloud, const std_msgs::Header& header);
+
+/// The file's cloud with its stored viewpoint (PCD VIEWPOINT) as sensor_origin_ and
+/// sensor_orientation_, where the pipeline's free-space check reads it.
+Cloud withViewpoint(const CloudFile& file);
+/// The pose held in a cloud's sensor_origin_ / sensor_orientation_ (for saving it).
+Eigen::Isometry3d viewpointOf(const Cloud& cloud);
 
 }  // namespace novelty_detection

@@ -38,6 +38,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   ~NoveltyDetectorNodelet() override;
 
  private:
+  static constexpr double kWarnPeriodS = 5.0;  // throttle period of repeated warnings
+
   void onInit() override;
   void publishStatus(const std::string& status);
 

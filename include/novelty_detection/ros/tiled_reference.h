@@ -29,7 +29,8 @@ class TiledReference {
 
   /// Replaces the map (fixed frame) and drops every cached model. Non-finite points are
   /// ignored. The map's sensor_origin_/sensor_orientation_ (its viewpoint, zero when
-  /// unknown) are passed on to every crop. Throws std::invalid_argument for a map without finite points.
+  /// unknown) are passed on to every crop. Throws std::invalid_argument for a map without finite
+  /// points.
   void setMap(const Cloud& map);
   bool hasMap() const;
   /// A copy of the map as given (for saving it).
