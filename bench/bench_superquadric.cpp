@@ -8,6 +8,7 @@
 
 #include "../test/unit/superquadric_samples.h"
 #include "novelty_detection/shape_retrieval.h"
+#include "novelty_detection/split_merge.h"
 #include "novelty_detection/superquadric.h"
 #include "novelty_detection/superquadric_fit.h"
 
@@ -144,6 +145,49 @@ void BM_ShapeRetrievalThreeNovelties(benchmark::State& state) {
   state.counters["truth_error_mm"] = 1e3 * truth_sum / std::max<std::size_t>(truth_n, 1);
 }
 BENCHMARK(BM_ShapeRetrievalThreeNovelties)->Unit(benchmark::kMillisecond);
+
+/// One novelty of the scene: 0 box, 1 cylinder, 2 person-like composite.
+void BM_ShapeRetrievalOneNovelty(benchmark::State& state) {
+  const Novelty n = scene()[static_cast<std::size_t>(state.range(0))];
+  const ShapeRetrieval retrieval{SuperquadricParams()};
+  std::vector<Superquadric> out;
+  for (auto _ : state) {
+    out = retrieval.recover(n.fine, n.coarse, 1);
+    benchmark::DoNotOptimize(out);
+  }
+  double sum = 0.0;
+  for (const auto& sq : out) {
+    for (int i : sq.indices) sum += surfaceDistance(sq, n.fine[i]);
+  }
+  state.counters["points"] = static_cast<double>(n.fine.size());
+  state.counters["superquadrics"] = static_cast<double>(out.size());
+  state.counters["point_distance_mm"] = 1e3 * sum / static_cast<double>(n.fine.size());
+}
+BENCHMARK(BM_ShapeRetrievalOneNovelty)->DenseRange(0, 2)->Unit(benchmark::kMillisecond);
+
+/// Split and merge alone on the person-like composite, memoized or not (arg 1 / 0).
+void BM_SplitMergePerson(benchmark::State& state) {
+  const SuperquadricParams params;
+  const Points3d pts = subsample(scene()[2].fine, params.split_max_points);
+  SplitMerge sm(params);
+  sm.setMemoize(state.range(0) != 0);
+  std::vector<SuperquadricPart> parts;
+  for (auto _ : state) {
+    parts = sm.run(pts);
+    benchmark::DoNotOptimize(parts);
+  }
+  state.counters["leaves"] = sm.stats().leaves;
+  state.counters["merges"] = sm.stats().merges;
+  state.counters["merge_fits"] = sm.stats().merge_fits;
+  state.counters["neighbour_pairs"] = sm.stats().neighbour_pairs;
+  state.counters["parts"] = static_cast<double>(parts.size());
+  double sum = 0.0;
+  for (const auto& p : parts) {
+    for (int i : p.indices) sum += surfaceDistance(p.fit.sq, pts[static_cast<std::size_t>(i)]);
+  }
+  state.counters["point_distance_mm"] = 1e3 * sum / static_cast<double>(pts.size());
+}
+BENCHMARK(BM_SplitMergePerson)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -16,12 +16,12 @@ namespace novelty_detection {
 class MultiScaleTree {
  public:
   struct Node {
-    int begin = 0, end = 0;           ///< range in order() of the node's points
-    int left = -1, right = -1;        ///< children, -1 for a leaf
+    int begin = 0, end = 0;     ///< range in order() of the node's points
+    int left = -1, right = -1;  ///< children, -1 for a leaf
     int parent = -1;
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
-    float sigma = 0.f;                ///< surface variation
+    float sigma = 0.f;                                      ///< surface variation
     Eigen::Vector3f eigenvalues = Eigen::Vector3f::Zero();  ///< of covariance, ascending
     int size() const { return end - begin; }
     bool isLeaf() const { return left < 0; }

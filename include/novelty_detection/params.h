@@ -16,19 +16,19 @@ namespace novelty_detection {
 
 /// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
 struct PreprocessParams {
-  int max_points = 2000000;        ///< sweeps larger than this are refused
-  bool outlier_removal = true;     ///< statistical outlier removal (Rusu et al. 2008)
-  int outlier_k = 8;               ///< neighbours for the mean distance
-  double outlier_std_mul = 3.0;    ///< reject when mean distance > mu + std_mul * sigma
-  bool outlier_range_scaled = false;  ///< divide mean distances by the range from the sensor
-  bool ground_removal = true;      ///< RANSAC ground plane removal
-  double ground_distance_m = 0.03; ///< inlier distance to the plane (lower bound)
+  int max_points = 2000000;            ///< sweeps larger than this are refused
+  bool outlier_removal = true;         ///< statistical outlier removal (Rusu et al. 2008)
+  int outlier_k = 8;                   ///< neighbours for the mean distance
+  double outlier_std_mul = 3.0;        ///< reject when mean distance > mu + std_mul * sigma
+  bool outlier_range_scaled = false;   ///< divide mean distances by the range from the sensor
+  bool ground_removal = true;          ///< RANSAC ground plane removal
+  double ground_distance_m = 0.03;     ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
   int ground_max_iterations = 200;     ///< RANSAC iterations
-  double ground_noise_k = 3.0;  ///< threshold = max(ground_distance_m, k * sigma_floor)
-  int ground_sample_points = 4096;       ///< RANSAC scores hypotheses on this many points
-  double ground_min_fraction = 0.05;     ///< a ground plane holds at least this share
-  double ground_lowest_support = 0.3;    ///< lowest plane with >= this * best support wins
+  double ground_noise_k = 3.0;         ///< threshold = max(ground_distance_m, k * sigma_floor)
+  int ground_sample_points = 4096;     ///< RANSAC scores hypotheses on this many points
+  double ground_min_fraction = 0.05;   ///< a ground plane holds at least this share
+  double ground_lowest_support = 0.3;  ///< lowest plane with >= this * best support wins
 
   template <class F>
   void visit(F&& f) {
@@ -67,9 +67,9 @@ struct PreprocessParams {
 /// outlier removal), 2-3x denser near edges than on walls. The noise-aware rule keeps that
 /// behaviour on noisy sensors, where Pauly's fixed sigma_max reads the noise as curvature.
 struct MultiScaleParams {
-  int n_max = 24;           ///< split clusters larger than this
-  double sigma_max = 0.01;  ///< split clusters whose surface variation exceeds this
-  bool noise_aware = true;  ///< discount the estimated sensor noise from the variation
+  int n_max = 24;             ///< split clusters larger than this
+  double sigma_max = 0.01;    ///< split clusters whose surface variation exceeds this
+  bool noise_aware = true;    ///< discount the estimated sensor noise from the variation
   double noise_factor = 2.0;  ///< variance discounted = noise_factor * estimated variance
 
   template <class F>
@@ -90,7 +90,7 @@ struct GmmParams {
   double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
   int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
   int max_iterations = 30;            ///< EM iteration cap
-  double tolerance = 1e-4;            ///< stop when the mean log-likelihood gains less [nats]
+  double tolerance = 1e-3;            ///< stop when the mean log-likelihood gains less [nats]
   double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
   bool current_from_reference = true; ///< start the current EM from the reference mixture
   int max_extra_components = 16;      ///< extra current Gaussians seeded where the map has none
@@ -202,13 +202,13 @@ struct SuperquadricParams {
   int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
   int split_max_points = 2400;      ///< split and merge works on at most this many points
   int split_min_points = 40;        ///< a part is not split into halves smaller than this
-  int split_fit_points = 100;       ///< parts are subsampled to this while splitting/merging
+  int split_fit_points = 80;        ///< parts are subsampled to this while splitting/merging
   double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
-  double split_force_factor = 1.5;  ///< split regardless of gain above this x exact error
+  double split_force_factor = 1.25; ///< split regardless of gain above this x exact error
   double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
   double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
-  double noise_factor = 2.0;        ///< ... and so are fits within this x estimated noise
-  double neighbour_distance_factor = 3.0;  ///< parts touch within this x point spacing
+  double noise_factor = 1.5;        ///< ... and so are fits within this x estimated noise
+  double neighbour_distance_factor = 1.0;  ///< parts touch within this x neighbourhood radius
   int max_parts = 8;                ///< cap on superquadrics per segment
 
   template <class F>
@@ -258,8 +258,8 @@ struct SuperquadricParams {
       "a fit whose mean distance is below noise_factor times the estimated sensor noise "
       "(local plane RMS) is exact: it is not split, merges into it are allowed");
     f("neighbour_distance_factor", neighbour_distance_factor,
-      "two parts are neighbours when their points come closer than this times the median "
-      "point spacing");
+      "two parts are neighbours when their points come closer than this times the radius of a "
+      "typical two-dimensional 12-point neighbourhood");
     f("max_parts", max_parts, "maximum number of superquadrics per segment");
   }
   void validate() const;

@@ -12,7 +12,7 @@ namespace novelty_detection {
 struct GroundPlane {
   bool found = false;
   Eigen::Vector4d coefficients = Eigen::Vector4d(0, 0, 1, 0);
-  Indices inliers;  ///< input-cloud indices on the plane
+  Indices inliers;             ///< input-cloud indices on the plane
   double noise_sigma_m = 0.0;  ///< robust (MAD) scale of the floor's residuals
   double threshold_m = 0.0;    ///< inlier distance used: max(distance, k * noise_sigma_m)
 };
@@ -21,7 +21,7 @@ struct PreprocessResult {
   Indices finite;    ///< input indices of finite points
   Indices outliers;  ///< input indices removed as sparse outliers
   GroundPlane ground;
-  Indices kept;      ///< input indices surviving every step, ascending
+  Indices kept;  ///< input indices surviving every step, ascending
 };
 
 /// Input indices of the points whose x, y, z are all finite.
@@ -53,9 +53,9 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 ///     hypotheses with at least ground_lowest_support of the best score the LOWEST wins, so
 ///     a ceiling or a table top seen more densely than the floor is not taken for it.
 ///  2. Refinement (on the same subset): the normal by least squares and the offset by the
-///     median residual of the points within 3 sigma, sigma = 1.4826 * MAD of those residuals, iterated to a fixed
-///     point (sigma starts at ground_distance_m). The median is robust to what stands on
-///     the floor (boxes, the foot of walls), which only ever lies above it.
+///     median residual of the points within 3 sigma, sigma = 1.4826 * MAD of those residuals,
+///     iterated to a fixed point (sigma starts at ground_distance_m). The median is robust to what
+///     stands on the floor (boxes, the foot of walls), which only ever lies above it.
 ///  3. Inliers: |distance| <= max(ground_distance_m, ground_noise_k * sigma).
 /// found = false when fewer than 3 points, no hypothesis within the angle, or fewer than
 /// ground_min_fraction of the points on the plane. Deterministic (fixed seed).

@@ -16,8 +16,9 @@ struct SuperquadricPart {
   FitResult fit;    ///< error measure: fit.mean_distance [m]
 };
 
-/// Scale: s = median nearest-neighbour spacing, r = neighbour_distance_factor * s, and the
-/// sensor noise sigma = median RMS distance of r-neighbourhoods to their best plane. A fit
+/// Scale: r = neighbour_distance_factor times the median radius of the smallest
+/// two-dimensional neighbourhood of >= 12 points (bridges scan lines), and the sensor noise
+/// sigma = median RMS distance of those neighbourhoods to their best plane. A fit
 /// is "exact" when its mean radial error e <= E = max(error_floor_m, noise_factor * sigma).
 ///
 /// Split: a part P (n points, fit error e = mean first-order Euclidean distance,

@@ -52,7 +52,8 @@ class SuperquadricFitter {
   /// screening_iterations on at most screening_points points; the one with the lowest mean
   /// radial distance is then refined on all points. Throws std::invalid_argument for an
   /// empty set or non-finite points.
-  FitResult fit(const Points3d& points) const;
+  /// max_iterations < 0: the params' max_iterations for the final refinement.
+  FitResult fit(const Points3d& points, int max_iterations = -1) const;
 
   /// LM from `initial` on `points` (max_iterations < 0: the params' max_iterations).
   FitResult refine(const Points3d& points, const Superquadric& initial,

@@ -29,18 +29,25 @@ Eigen::VectorXd weightVector(const WeightedPoints& data) {
   return data.weights.size() ? data.weights : Eigen::VectorXd::Ones(data.points.cols());
 }
 
-/// Column-wise log-sum-exp of a K x N matrix.
-Eigen::VectorXd logSumExpCols(const Eigen::MatrixXd& a) {
-  Eigen::VectorXd out(a.cols());
+/// In place: each column of log-values a (K x N) becomes its softmax; lse[n] receives the
+/// column's log-sum-exp. One exp per entry (the hot loop of EM). A column of -inf (every
+/// weight zero) becomes uniform with lse -inf.
+void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse) {
+  lse.resize(a.cols());
+  const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, a.rows()));
   for (Eigen::Index n = 0; n < a.cols(); ++n) {
-    const double m = a.col(n).maxCoeff();
+    auto col = a.col(n);
+    const double m = col.maxCoeff();
     if (!std::isfinite(m)) {
-      out[n] = m;
+      lse[n] = m;
+      col.setConstant(uniform);
       continue;
     }
-    out[n] = m + std::log((a.col(n).array() - m).exp().sum());
+    col = (col.array() - m).exp().matrix();
+    const double sum = col.sum();
+    col /= sum;
+    lse[n] = m + std::log(sum);
   }
-  return out;
 }
 
 /// One M-step from responsibilities R (K x N). Returns the new mixture (empty comps dropped).
@@ -103,15 +110,9 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
 Eigen::MatrixXd responsibilities(const Gmm& gmm, const Eigen::Matrix3Xd& points,
                                  Eigen::VectorXd* log_likelihood) {
   Eigen::MatrixXd lp = logWeightedDensities(gmm, points);
-  const Eigen::VectorXd lse = logSumExpCols(lp);
-  for (Eigen::Index n = 0; n < lp.cols(); ++n) {
-    if (std::isfinite(lse[n])) {
-      lp.col(n) = (lp.col(n).array() - lse[n]).exp().matrix();
-    } else {
-      lp.col(n).setConstant(1.0 / std::max<Eigen::Index>(1, lp.rows()));
-    }
-  }
-  if (log_likelihood) *log_likelihood = lse;
+  Eigen::VectorXd lse;
+  softmaxCols(lp, lse);
+  if (log_likelihood) *log_likelihood = std::move(lse);
   return lp;
 }
 
@@ -271,7 +272,8 @@ Gmm GmmFitter::fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* 
       log_pi[k] = gmm.components[k].weight > 0 ? std::log(gmm.components[k].weight)
                                                : -std::numeric_limits<double>::infinity();
     Eigen::MatrixXd lp = log_density.colwise() + log_pi;
-    const Eigen::VectorXd lse = logSumExpCols(lp);
+    Eigen::VectorXd lse;
+    softmaxCols(lp, lse);
     st.log_likelihood = w.dot(lse) / total;
     st.iterations = it + 1;
     if (st.log_likelihood - prev < params_.tolerance) {
@@ -279,7 +281,6 @@ Gmm GmmFitter::fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* 
       break;
     }
     prev = st.log_likelihood;
-    for (Eigen::Index n = 0; n < lp.cols(); ++n) lp.col(n) = (lp.col(n).array() - lse[n]).exp();
     const Eigen::VectorXd nk = lp * w;
     for (std::size_t k = 0; k < gmm.size(); ++k) gmm.components[k].weight = nk[k] / total;
   }

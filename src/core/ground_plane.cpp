@@ -59,8 +59,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     }
     const Eigen::Vector3d p = cloud[i].getVector3fMap().cast<double>();
     if (!p.allFinite()) {
-      throw std::invalid_argument("findGroundPlane: point " + std::to_string(i) +
-                                  " is not finite");
+      throw std::invalid_argument("findGroundPlane: point " + std::to_string(i) + " is not finite");
     }
     pts.push_back(p);
   }
@@ -113,8 +112,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   double lowest = 0.0;
   for (const auto& h : hyps) {
     if (h.support < params.ground_lowest_support * best || h.support < 3) continue;
-    const double z = -(h.d + h.normal.x() * centre.x() + h.normal.y() * centre.y()) /
-                     h.normal.z();
+    const double z = -(h.d + h.normal.x() * centre.x() + h.normal.y() * centre.y()) / h.normal.z();
     if (!chosen || z < lowest) {
       chosen = &h;
       lowest = z;

@@ -215,8 +215,7 @@ MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {
   return cut(n_max, sigma_max, 0.0);
 }
 
-MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max,
-                                        double noise_var_m2) const {
+MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max, double noise_var_m2) const {
   if (n_max < 1) throw std::invalid_argument("MultiScaleTree::cut: n_max must be >= 1");
   if (!(sigma_max >= 0.0)) {
     throw std::invalid_argument("MultiScaleTree::cut: sigma_max must be >= 0");

@@ -98,9 +98,7 @@ Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indic
   return statisticalOutliers(cloud, indices, k, std_mul, &sensor_origin, removed);
 }
 
-Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) {
-  params_.validate();
-}
+Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) { params_.validate(); }
 
 PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
   return compute(cloud, cloud.sensor_origin_.head<3>());
@@ -109,9 +107,9 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
 PreprocessResult Preprocessor::compute(const Cloud& cloud,
                                        const Eigen::Vector3f& sensor_origin) const {
   if (cloud.size() > static_cast<std::size_t>(params_.max_points)) {
-    throw std::invalid_argument("Preprocessor: cloud has " + std::to_string(cloud.size()) +
-                                " points, more than preprocess/max_points = " +
-                                std::to_string(params_.max_points));
+    throw std::invalid_argument(
+        "Preprocessor: cloud has " + std::to_string(cloud.size()) +
+        " points, more than preprocess/max_points = " + std::to_string(params_.max_points));
   }
   PreprocessResult result;
   result.finite = finiteIndices(cloud);
@@ -121,8 +119,8 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud,
                   ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
                                                     params_.outlier_std_mul, sensor_origin,
                                                     &result.outliers)
-                  : removeSparseOutliers(cloud, current, params_.outlier_k,
-                                         params_.outlier_std_mul, &result.outliers);
+                  : removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
+                                         &result.outliers);
   }
   if (params_.ground_removal) {
     result.ground = findGroundPlane(cloud, current, params_);

@@ -7,6 +7,7 @@
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -32,35 +33,53 @@ Indices sortedUnion(const Indices& a, const Indices& b) {
   return u;
 }
 
-/// Sensor noise estimate [m]: the median, over a few evenly spread points, of the RMS
-/// distance of their neighbours (within `radius`) to the neighbours' best plane, sqrt of
-/// the smallest covariance eigenvalue. Edges and corners are a minority, so the median
-/// sees flat patches.
-double estimateNoise(const Points3d& points, const PointGrid& grid, double radius) {
+/// Local scale of the sampling and the sensor noise, from a few evenly spread points: the
+/// smallest neighbourhood (k nearest, k >= 12, grown by half until it is two-dimensional,
+/// lambda1 >= 0.1 lambda2, so that scan lines sparser than the points along them are
+/// bridged) gives its radius and the RMS distance of its points to their best plane,
+/// sqrt(lambda0). Medians over the samples; edges and corners are a minority.
+void neighbourhoodScale(const Points3d& points, double* radius, double* noise) {
+  *radius = 0.0;
+  *noise = 0.0;
   const std::size_t n = points.size();
-  const std::size_t samples = std::min<std::size_t>(n, 64);
-  std::vector<double> rms;
-  for (std::size_t k = 0; k < samples; ++k) {
-    const Eigen::Vector3d& p = points[k * n / samples];
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d sq = Eigen::Matrix3d::Zero();
-    int count = 0;
-    grid.forNeighbours(p, radius, [&](int j) {
-      const Eigen::Vector3d d = points[static_cast<std::size_t>(j)] - p;
-      sum += d;
-      sq.noalias() += d * d.transpose();
-      ++count;
-    });
-    if (count < 6) continue;
-    const Eigen::Vector3d mean = sum / count;
-    const Eigen::Matrix3d cov = sq / count - mean * mean.transpose();
-    const double l0 = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly)
-                          .eigenvalues()[0];
-    rms.push_back(std::sqrt(std::max(0.0, l0)));
+  if (n < 4) return;
+  const std::size_t samples = std::min<std::size_t>(n, 48);
+  std::vector<double> radii, rms;
+  std::vector<std::pair<double, int>> dist(n);
+  for (std::size_t s = 0; s < samples; ++s) {
+    const Eigen::Vector3d& p = points[s * n / samples];
+    for (std::size_t j = 0; j < n; ++j) {
+      dist[j] = {(points[j] - p).squaredNorm(), static_cast<int>(j)};
+    }
+    const std::size_t k_max = std::min<std::size_t>(n, 400);
+    std::partial_sort(dist.begin(), dist.begin() + k_max, dist.end());
+    for (std::size_t k = std::min<std::size_t>(12, k_max);; k = std::min(k_max, k + k / 2)) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (std::size_t m = 0; m < k; ++m) mean += points[static_cast<std::size_t>(dist[m].second)];
+      mean /= static_cast<double>(k);
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (std::size_t m = 0; m < k; ++m) {
+        const Eigen::Vector3d d = points[static_cast<std::size_t>(dist[m].second)] - mean;
+        cov.noalias() += d * d.transpose();
+      }
+      cov /= static_cast<double>(k);
+      const Eigen::Vector3d l =
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly)
+              .eigenvalues()
+              .cwiseMax(0.0);
+      if (l[1] >= 0.1 * l[2] || k == k_max) {
+        radii.push_back(std::sqrt(dist[k - 1].first));
+        rms.push_back(std::sqrt(l[0]));
+        break;
+      }
+    }
   }
-  if (rms.empty()) return 0.0;
-  std::nth_element(rms.begin(), rms.begin() + rms.size() / 2, rms.end());
-  return rms[rms.size() / 2];
+  auto median = [](std::vector<double>& v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  *radius = median(radii);
+  *noise = median(rms);
 }
 
 /// Marks leaves whose points come closer than `radius`.
@@ -84,18 +103,19 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   if (points.empty()) throw std::invalid_argument("SplitMerge::run: no points");
   stats_ = Stats();
   // Fits inside split and merge only rank candidates: fewer LM iterations suffice.
-  const int inner_iterations = std::min(params_.max_iterations, 20);
+  const int inner_iterations = std::min(params_.max_iterations, 15);
   auto fit_part = [&](const Indices& indices) {
-    return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points));
+    return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points),
+                       inner_iterations);
   };
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
   // radial error is below `exact` explains its points within the noise.
-  const double spacing = medianSpacing(points);
-  const double radius = params_.neighbour_distance_factor * spacing;
+  double radius = 0.0;
+  neighbourhoodScale(points, &radius, &stats_.noise_m);
+  radius *= params_.neighbour_distance_factor;
   std::unique_ptr<PointGrid> grid;
-  if (radius > 0.0) grid = std::make_unique<PointGrid>(points, radius);
-  stats_.noise_m = grid ? estimateNoise(points, *grid, radius) : 0.0;
+  if (radius > 0.0 && std::isfinite(radius)) grid = std::make_unique<PointGrid>(points, radius);
   const double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
 
   // ---- Split: a binary tree over the points (Sec. V-C, first step).

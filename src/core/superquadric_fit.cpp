@@ -197,7 +197,7 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   return result;
 }
 
-FitResult SuperquadricFitter::fit(const Points3d& points) const {
+FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations) const {
   requirePoints(points, "SuperquadricFitter::fit");
   const std::vector<Superquadric> guesses = initialGuesses(points);
   const Points3d screen = subsample(points, params_.screening_points);
@@ -210,7 +210,7 @@ FitResult SuperquadricFitter::fit(const Points3d& points) const {
       best = r;
     }
   }
-  return refine(points, best.sq);
+  return refine(points, best.sq, max_iterations);
 }
 
 }  // namespace novelty_detection

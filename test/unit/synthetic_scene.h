@@ -24,11 +24,11 @@ struct AlignedBox {
 };
 
 struct SceneOptions {
-  int points = 30000;          ///< rays cast (before outliers and NaNs are added)
-  double range_sigma_m = 0.0;  ///< noise along the beam
-  double outlier_fraction = 0.0;  ///< sparse outliers added, uniform in the corridor
+  int points = 30000;                ///< rays cast (before outliers and NaNs are added)
+  double range_sigma_m = 0.0;        ///< noise along the beam
+  double outlier_fraction = 0.0;     ///< sparse outliers added, uniform in the corridor
   double outlier_clearance_m = 0.0;  ///< ... at least this far from every surface
-  double nan_fraction = 0.0;      ///< NaN points inserted at random positions
+  double nan_fraction = 0.0;         ///< NaN points inserted at random positions
   unsigned seed = 1;
   Eigen::Vector3d sensor = Eigen::Vector3d(0.0, 0.0, 0.6);
   AlignedBox room{Eigen::Vector3d(-3.0, -1.2, 0.0), Eigen::Vector3d(12.0, 1.2, 2.6)};
@@ -40,13 +40,12 @@ struct SceneOptions {
 
 struct Scene {
   Cloud cloud;
-  std::vector<int> label;   ///< per point: Label, or kObject + object number
+  std::vector<int> label;         ///< per point: Label, or kObject + object number
   std::vector<double> surface_z;  ///< height of the noise-free hit (NaN for outliers)
 };
 
 /// Entry distance of a ray into a box from outside (slab method), +inf when it misses.
-inline double rayEnter(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                       const AlignedBox& b) {
+inline double rayEnter(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const AlignedBox& b) {
   double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     if (std::abs(d(a)) < 1e-12) {
@@ -68,9 +67,8 @@ inline Scene makeCorridor(const SceneOptions& opt) {
   Scene scene;
   // A tilting 2D scanner: azimuth over 270 deg, tilt over [-55, 45] deg, about square steps.
   const double az_span = 1.5 * M_PI, tilt_lo = -55.0 * M_PI / 180, tilt_hi = 45.0 * M_PI / 180;
-  const int n_tilt =
-      std::max(2, static_cast<int>(std::round(std::sqrt(opt.points * (tilt_hi - tilt_lo) /
-                                                        az_span))));
+  const int n_tilt = std::max(
+      2, static_cast<int>(std::round(std::sqrt(opt.points * (tilt_hi - tilt_lo) / az_span))));
   const int n_az = std::max(2, opt.points / n_tilt);
   for (int it = 0; it < n_tilt; ++it) {
     const double tilt = tilt_lo + (tilt_hi - tilt_lo) * (it + 0.5) / n_tilt;
@@ -101,8 +99,8 @@ inline Scene makeCorridor(const SceneOptions& opt) {
       }
       const Eigen::Vector3d hit = opt.sensor + t * d;
       const Eigen::Vector3d p = opt.sensor + (t + opt.range_sigma_m * noise(rng)) * d;
-      scene.cloud.push_back(PointT(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                   static_cast<float>(p.z())));
+      scene.cloud.push_back(
+          PointT(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
       scene.label.push_back(label);
       scene.surface_z.push_back(hit.z());
     }
@@ -119,8 +117,8 @@ inline Scene makeCorridor(const SceneOptions& opt) {
     }
     if (clearance < opt.outlier_clearance_m) continue;
     ++k;
-    scene.cloud.push_back(PointT(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                 static_cast<float>(p.z())));
+    scene.cloud.push_back(
+        PointT(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     scene.label.push_back(kOutlier);
     scene.surface_z.push_back(std::numeric_limits<double>::quiet_NaN());
   }

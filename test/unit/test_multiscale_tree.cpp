@@ -39,8 +39,8 @@ nd::Cloud corner(int n, unsigned seed) {
 }
 
 /// Checks that the cut partitions the tree's points and agrees with the nodes.
-void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& cut,
-                     int n_max, double sigma_max, bool pauly_scale = true) {
+void expectPartition(const Tree& tree, const nd::Cloud& cloud, const Tree::Cut& cut, int n_max,
+                     double sigma_max, bool pauly_scale = true) {
   ASSERT_EQ(cut.cluster_of.size(), cloud.size());
   ASSERT_EQ(cut.points.size(), cut.nodes.size());
   ASSERT_EQ(cut.sizes.size(), cut.nodes.size());
@@ -172,8 +172,34 @@ TEST(MultiScaleTree, CornerIsSplitAndStaysDenserThanFaces) {
   ASSERT_GT(edge_n, 0);
   ASSERT_GT(face_n, 0);
   EXPECT_LT(edge_sum / edge_n, 0.2 * face_sum / face_n)
-      << "edge clusters " << edge_n << " mean " << edge_sum / edge_n << ", face clusters "
-      << face_n << " mean " << face_sum / face_n;
+      << "edge clusters " << edge_n << " mean " << edge_sum / edge_n << ", face clusters " << face_n
+      << " mean " << face_sum / face_n;
+}
+
+TEST(MultiScaleTree, RightAngleEdgeIsSplitIntoItsFaces) {
+  // Two unit squares meeting at a right angle along the z axis (x = 0 and y = 0 faces).
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  nd::Cloud cloud;
+  for (int k = 0; k < 1500; ++k) cloud.push_back(nd::PointT(0, u(rng), u(rng)));
+  for (int k = 0; k < 1500; ++k) cloud.push_back(nd::PointT(u(rng), 0, u(rng)));
+  Tree tree;
+  tree.build(cloud);
+  // Covariance eigenvalues of the L: 1/24 along (1,1,0), 1/12 along z, 1/6 along (1,-1,0):
+  // sigma = 1/7. The split normal to (1,-1,0) through the centroid separates the faces.
+  EXPECT_NEAR(tree.nodes()[0].sigma, 1.0 / 7.0, 0.01);
+  const Tree::Cut cut = tree.cut(1 << 20, 0.01);
+  expectPartition(tree, cloud, cut, 1 << 20, 0.01);
+  ASSERT_EQ(cut.nodes.size(), 2u);
+  for (const int node : cut.nodes) EXPECT_LT(tree.nodes()[node].sigma, 1e-4);
+  // One face each, but for points within the sampling offset of the centroid from the
+  // edge's bisector, which can fall on the other side.
+  const int face_of_x0 = cut.cluster_of[0];
+  for (int i = 0; i < 3000; ++i) {
+    const bool on_x0 = i < 1500;
+    const float from_edge = on_x0 ? cloud[i].y : cloud[i].x;
+    if (from_edge > 0.03f) EXPECT_EQ(cut.cluster_of[i] == face_of_x0, on_x0) << "point " << i;
+  }
 }
 
 TEST(MultiScaleTree, CutSizesShrinkAsScaleGrows) {
@@ -297,8 +323,8 @@ TEST(MultiScaleTree, NoiseEstimateAndNoiseAwareCut) {
     previous = size;
   }
   nd::MultiScaleParams p;
-  EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max,
-                                        p.noise_factor * tree.noiseVariance()).nodes);
+  EXPECT_EQ(tree.cut(p).nodes,
+            tree.cut(p.n_max, p.sigma_max, p.noise_factor * tree.noiseVariance()).nodes);
   p.noise_aware = false;
   EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max).nodes);
   EXPECT_THROW(tree.cut(8, 0.01, -1.0), std::invalid_argument);

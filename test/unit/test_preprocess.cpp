@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <cmath>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -107,11 +107,9 @@ TEST_P(OutlierRemoval, RemovesInjectedOutliersKeepsSurfaces) {
   nd::Indices removed;
   const nd::Indices kept =
       GetParam().range_scaled
-          ? nd::removeSparseOutliersRangeScaled(scene.cloud, all, p.outlier_k,
-                                                p.outlier_std_mul, opt.sensor.cast<float>(),
-                                                &removed)
-          : nd::removeSparseOutliers(scene.cloud, all, p.outlier_k, p.outlier_std_mul,
-                                     &removed);
+          ? nd::removeSparseOutliersRangeScaled(scene.cloud, all, p.outlier_k, p.outlier_std_mul,
+                                                opt.sensor.cast<float>(), &removed)
+          : nd::removeSparseOutliers(scene.cloud, all, p.outlier_k, p.outlier_std_mul, &removed);
   EXPECT_EQ(kept.size() + removed.size(), all.size());
   EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
   int outliers = 0, outliers_removed = 0, surface = 0, surface_removed = 0;
@@ -140,13 +138,11 @@ TEST_P(OutlierRemoval, RemovesInjectedOutliersKeepsSurfaces) {
               surface_removed, surface);
 }
 
-INSTANTIATE_TEST_SUITE_P(Cases, OutlierRemoval,
-                         ::testing::Values(OutlierCase{0.005, false, 6.0},
-                                           OutlierCase{0.0316, false, 6.0},
-                                           OutlierCase{0.005, true, 6.0},
-                                           OutlierCase{0.0316, true, 6.0},
-                                           OutlierCase{0.005, true, 12.0},
-                                           OutlierCase{0.0316, true, 12.0}));
+INSTANTIATE_TEST_SUITE_P(
+    Cases, OutlierRemoval,
+    ::testing::Values(OutlierCase{0.005, false, 6.0}, OutlierCase{0.0316, false, 6.0},
+                      OutlierCase{0.005, true, 6.0}, OutlierCase{0.0316, true, 6.0},
+                      OutlierCase{0.005, true, 12.0}, OutlierCase{0.0316, true, 12.0}));
 
 TEST(OutlierRemovalEdgeCases, SmallInputsAndBadArguments) {
   nd::Cloud cloud;
@@ -194,10 +190,11 @@ TEST_P(GroundRemoval, RecoversFloorKeepsBox) {
       room_removed += on_ground[i];
     }
   }
-  std::printf("noise %.4f: sigma_est %.4f threshold %.4f, offset %.4f, floor removed %d/%d, "
-              "box above kept %d/%d\n",
-              sigma, g.noise_sigma_m, g.threshold_m, g.coefficients(3), floor_removed, floor,
-              box_above_kept, box_above);
+  std::printf(
+      "noise %.4f: sigma_est %.4f threshold %.4f, offset %.4f, floor removed %d/%d, "
+      "box above kept %d/%d\n",
+      sigma, g.noise_sigma_m, g.threshold_m, g.coefficients(3), floor_removed, floor,
+      box_above_kept, box_above);
   EXPECT_GE(floor_removed, 0.97 * floor);
   ASSERT_GT(box_above, 100);
   EXPECT_EQ(box_above_kept, box_above);
@@ -367,11 +364,17 @@ TEST(PreprocessSimulated, CorridorAtPaperNoise) {
     EXPECT_LT(floor_left, 0.02 * r.ground.inliers.size()) << "seed " << seed;
     // Rusu's global statistic drops some far, sparsely sampled wall points; not more.
     EXPECT_LT(r.outliers.size(), 0.025 * cloud.size()) << "seed " << seed;
-    std::printf("seed %d: %zu points, %zu kept, ground %zu (threshold %.3f m), outliers %zu, "
-                "floor left below %d, novel above kept %d/%d\n",
-                static_cast<int>(seed), cloud.size(), r.kept.size(), r.ground.inliers.size(),
-                r.ground.threshold_m, r.outliers.size(), floor_left, novel_above_kept,
-                novel_above);
+    {
+      const Eigen::Vector4d& c = r.ground.coefficients;
+      const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
+      std::printf("angle %.3f deg, d %.4f, height under sensor %.4f\n", angleToZDeg(c), c(3),
+                  -(c(3) + c(0) * o.x() + c(1) * o.y()) / c(2));
+    }
+    std::printf(
+        "seed %d: %zu points, %zu kept, ground %zu (threshold %.3f m), outliers %zu, "
+        "floor left below %d, novel above kept %d/%d\n",
+        static_cast<int>(seed), cloud.size(), r.kept.size(), r.ground.inliers.size(),
+        r.ground.threshold_m, r.outliers.size(), floor_left, novel_above_kept, novel_above);
   }
 }
 

@@ -162,3 +162,25 @@ TEST(SplitMerge, PersonLikeCompositeIsExplainedByFewParts) {
 TEST(SplitMerge, RefusesEmptyInput) {
   EXPECT_THROW(SplitMerge(SuperquadricParams()).run({}), std::invalid_argument);
 }
+
+TEST(ShapeRetrieval, DegenerateSegmentsGiveFiniteSuperquadrics) {
+  const ShapeRetrieval retrieval{SuperquadricParams()};
+  Points3d line, plane;
+  for (int i = 0; i < 200; ++i) line.emplace_back(0.01 * i, 0.5, 1.0);
+  for (int i = 0; i < 400; ++i) plane.emplace_back(0.02 * (i % 20), 0.02 * (i / 20), 0.3);
+  const std::vector<Points3d> segments = {{Eigen::Vector3d(1, 2, 3)},
+                                          Points3d(50, Eigen::Vector3d(1, 1, 1)), line, plane};
+  for (const auto& fine : segments) {
+    const auto sqs = retrieval.recover(fine, {}, 4);
+    ASSERT_FALSE(sqs.empty());
+    std::size_t n = 0;
+    for (const auto& sq : sqs) {
+      EXPECT_TRUE(sq.a.allFinite() && sq.euler.allFinite() && sq.position.allFinite());
+      EXPECT_TRUE(std::isfinite(sq.residual));
+      EXPECT_GE(sq.a.minCoeff(), SuperquadricParams().min_size_m);
+      n += sq.indices.size();
+    }
+    EXPECT_EQ(n, fine.size());
+  }
+  EXPECT_THROW(retrieval.recover({Eigen::Vector3d(0, NAN, 0)}, {}, 1), std::invalid_argument);
+}

@@ -65,8 +65,7 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points) {
       int dim = 0;
       (hi - lo).maxCoeff(&dim);
       const int mid = task.begin + (task.end - task.begin) / 2;
-      std::nth_element(items.begin() + task.begin, items.begin() + mid,
-                       items.begin() + task.end,
+      std::nth_element(items.begin() + task.begin, items.begin() + mid, items.begin() + task.end,
                        [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
       stack.push_back({mid, task.end, id, true});
       stack.push_back({task.begin, mid, id, false});
@@ -84,8 +83,7 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points) {
   }
 }
 
-void KnnTree::search(int node_id, const float* q, int self, int k, float* d2,
-                     int* count) const {
+void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, int* count) const {
   const Node& node = nodes_[node_id];
   if (node.left < 0) {
     for (int i = node.begin; i < node.end; ++i) {
