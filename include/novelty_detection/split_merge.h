@@ -19,7 +19,9 @@ struct SuperquadricPart {
 /// Scale: r = neighbour_distance_factor times the median radius of the smallest
 /// two-dimensional neighbourhood of >= 12 points (bridges scan lines), and the sensor noise
 /// sigma = median RMS distance of those neighbourhoods to their best plane. A fit
-/// is "exact" when its mean radial error e <= E = max(error_floor_m, noise_factor * sigma).
+/// is "exact" when its mean distance e <= E = max(error_floor_m, noise_factor * sigma);
+/// after splitting, E is raised to noise_factor times the median leaf error if larger
+/// (the plane RMS underestimates range noise on laser sweeps).
 ///
 /// Split: a part P (n points, fit error e = mean first-order Euclidean distance,
 /// meanSurfaceDistance(), comparable with the noise unlike the radial distance) is cut by the plane

@@ -116,7 +116,8 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   radius *= params_.neighbour_distance_factor;
   std::unique_ptr<PointGrid> grid;
   if (radius > 0.0 && std::isfinite(radius)) grid = std::make_unique<PointGrid>(points, radius);
-  const double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
+  // Not const: after splitting it is raised to the leaves' typical error (see below).
+  double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
 
   // ---- Split: a binary tree over the points (Sec. V-C, first step).
   struct Node {
@@ -196,6 +197,18 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     parts[k].fit = std::move(nodes[leaves[k]].fit);
   }
   if (count == 1) return parts;
+
+  // The plane RMS underestimates the noise of laser sweeps (points of one scan line are
+  // coplanar with the sensor whatever their range noise). Small leaves fit their points at
+  // about the noise level, so merging accepts fits within noise_factor times the median
+  // leaf error as exact too.
+  {
+    std::vector<double> leaf_errors;
+    for (const auto& part : parts) leaf_errors.push_back(part.fit.mean_distance);
+    std::nth_element(leaf_errors.begin(), leaf_errors.begin() + leaf_errors.size() / 2,
+                     leaf_errors.end());
+    exact = std::max(exact, params_.noise_factor * leaf_errors[leaf_errors.size() / 2]);
+  }
 
   // ---- Topology, computed once: siblings and touching leaves.
   std::vector<std::vector<char>> adjacent(count, std::vector<char>(count, 0));
