@@ -26,8 +26,14 @@ std::string valueToString(const T& value) {
     out << (value ? "true" : "false");
   } else if constexpr (std::is_same_v<T, double>) {
     out << std::setprecision(10) << value;
-    const std::string s = out.str();
-    if (s.find_first_of(".e") == std::string::npos) return s + ".0";
+    std::string s = out.str();
+    // YAML 1.1 (rosparam) reads a float only with a dot: 1e-06 must be 1.0e-06.
+    if (s.find_first_of("ni") != std::string::npos) return s;  // nan, inf
+    if (s.find('.') == std::string::npos) {
+      const auto e = s.find('e');
+      if (e == std::string::npos) return s + ".0";
+      s.insert(e, ".0");
+    }
     return s;
   } else {
     out << value;

@@ -33,6 +33,17 @@ TEST(Params, ReadmeTableMatchesStructDefaults) {
       << "README.md's parameter table is out of date: run scripts/update_docs.sh";
 }
 
+TEST(Params, DoublesAreWrittenAsYaml11Floats) {
+  // rosparam parses YAML 1.1, where 1e-06 is a string; 1.0e-06 is a float.
+  Params p;
+  p.gmm.tolerance = 1e-6;
+  const std::string yaml = novelty_detection::paramsToYaml(p);
+  EXPECT_NE(yaml.find("tolerance: 1.0e-06"), std::string::npos) << yaml;
+  Params q;
+  novelty_detection::loadParamsYamlString(yaml, q);
+  EXPECT_DOUBLE_EQ(q.gmm.tolerance, 1e-6);
+}
+
 TEST(Params, YamlOverridesAndRoundTrips) {
   Params p;
   novelty_detection::loadParamsYamlString("gmm:\n  max_components: 12\nselection:\n  u_th: 0.5\n", p);
