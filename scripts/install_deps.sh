@@ -7,6 +7,7 @@ PACKAGES=(
   librosbag-dev libtf2-ros-dev libtf2-eigen-dev libtf2-sensor-msgs-dev
   libvisualization-msgs-dev libstd-srvs-dev liblaser-geometry-dev libdiagnostic-updater-dev
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   liblemon-dev liboctomap-dev libgtest-dev libbenchmark-dev libyaml-cpp-dev nlohmann-json3-dev
   python3-rostest python3-roslaunch python3-rosbag python3-rosmaster python3-nodelet
   rosbash rosout librostest-dev python3-sensor-msgs python3-geometry-msgs

@@ -1,4 +1,5 @@
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
+#include "novelty_detection/ros/reconfigure.h"
 
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -108,6 +109,21 @@ void NoveltyDetectorNodelet::onInit() {
   diagnostics_->add("novelty detector", this, &NoveltyDetectorNodelet::diagnose);
   diagnostics_timer_ = pnh.createWallTimer(
       ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+
+  // Live tuning: start the server at the loaded values, not the .cfg defaults.
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<DetectorConfig>>(
+      reconfigure_mutex_, ros::NodeHandle(pnh, "tuning"));
+  {
+    DetectorConfig initial = DetectorConfig::__getDefault__();
+    dynamic_reconfigure::Config msg;
+    initial.__toMessage__(msg);
+    paramsToConfigMsg(params_, msg);
+    initial.__fromMessage__(msg);
+    reconfigure_->updateConfig(initial);
+  }
+  reconfigure_->setCallback([this](DetectorConfig& config, uint32_t level) {
+    onReconfigure(config, level);
+  });
 
   // The worker loads the reference file (possibly large) so that onInit never blocks.
   worker_ = std::thread(&NoveltyDetectorNodelet::workerLoop, this);

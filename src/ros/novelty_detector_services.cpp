@@ -7,6 +7,7 @@
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
+#include "novelty_detection/ros/reconfigure.h"
 #include "novelty_detection/ros/result_messages.h"
 
 namespace novelty_detection {
@@ -81,6 +82,22 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     NODELET_WARN("detect failed: %s", e.what());
   }
   return true;
+}
+
+void NoveltyDetectorNodelet::onReconfigure(DetectorConfig& config, uint32_t /*level*/) {
+  dynamic_reconfigure::Config msg;
+  config.__toMessage__(msg);
+  std::lock_guard<std::mutex> lock(params_mutex_);
+  try {
+    const Params updated = applyConfigMsg(msg, params_);
+    reference_->setParams(updated);
+    params_ = updated;
+    NODELET_INFO("parameters updated; reference models are rebuilt on the next sweep");
+  } catch (const std::exception& e) {
+    NODELET_WARN("reconfigure refused: %s", e.what());
+    paramsToConfigMsg(params_, msg);
+    config.__fromMessage__(msg);
+  }
 }
 
 void NoveltyDetectorNodelet::warnThrottled(const std::string& category, const std::string& text) {

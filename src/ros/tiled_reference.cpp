@@ -37,6 +37,13 @@ void TiledReference::setMap(const Cloud& map) {
   cache_.clear();
 }
 
+void TiledReference::setParams(const Params& params) {
+  params.validate();
+  std::lock_guard<std::mutex> lock(mutex_);
+  params_ = params;
+  cache_.clear();
+}
+
 bool TiledReference::hasMap() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return map_ != nullptr;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -19,6 +20,7 @@
 #include <thread>
 
 #include "novelty_detection/Detect.h"
+#include "novelty_detection/DetectorConfig.h"
 #include "novelty_detection/SaveReference.h"
 #include "novelty_detection/SetReference.h"
 #include "novelty_detection/params.h"
@@ -62,6 +64,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   bool onSaveReference(SaveReference::Request& req, SaveReference::Response& res);
   bool onDetect(Detect::Request& req, Detect::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// dynamic_reconfigure (~tuning): applies the thresholds in config/Detector.cfg; an
+  /// invalid combination is refused and the previous values are shown again.
+  void onReconfigure(DetectorConfig& config, uint32_t level);
   /// Warns at most once per period per category, but at once when the text changes, so
   /// that different problems in a row are all reported.
   void warnThrottled(const std::string& category, const std::string& text);
@@ -81,6 +86,10 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   ros::WallTimer diagnostics_timer_;
 
   std::unique_ptr<TiledReference> reference_;
+
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<DetectorConfig>> reconfigure_;
+  std::mutex params_mutex_;  // guards params_ after onInit
 
   // Depth-1 hand-over to the worker.
   std::mutex queue_mutex_;

@@ -42,6 +42,10 @@ class TiledReference {
   /// no map point lies in that box, and whatever Pipeline::setReference throws.
   std::shared_ptr<const Pipeline> pipelineFor(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
+  /// New parameters (validated by the caller) for the models built from now on; drops the
+  /// cached ones. Detections already running keep the pipeline they hold.
+  void setParams(const Params& params);
+
   std::size_t cachedModels() const;
   std::size_t modelsBuilt() const;
 
