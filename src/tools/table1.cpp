@@ -77,11 +77,12 @@ struct Run {
   bool success = false;
   double f1 = 0.0;
   double sq_error_m = -1.0;  ///< mean over segments with superquadrics; < 0: none
+  std::string error;         ///< the pipeline threw: the scene counts as failed, untimed
 };
 
 struct Row {
   std::string dataset, mode;
-  int scenes = 0;
+  int scenes = 0, errors = 0;
   double points = 0.0;
   std::vector<std::pair<std::string, double>> stages;  ///< median ms per stage
   double wall_ms = 0.0, cpu_ms = 0.0, reference_ms = 0.0;
@@ -163,6 +164,10 @@ Row summarize(const std::string& dataset, const std::string& mode,
   double f1 = 0.0, sq = 0.0;
   int ok = 0, sq_n = 0;
   for (const Run& r : runs) {
+    if (!r.error.empty()) {
+      ++row.errors;
+      continue;
+    }
     pts.push_back(static_cast<double>(r.points));
     wall.push_back(r.wall_ms);
     cpu.push_back(r.cpu_ms);
@@ -178,7 +183,7 @@ Row summarize(const std::string& dataset, const std::string& mode,
     std::vector<double> v;
     for (const Run& r : runs) {
       auto it = r.stage_ms.find(st);
-      v.push_back(it == r.stage_ms.end() ? 0.0 : it->second);
+      if (r.error.empty()) v.push_back(it == r.stage_ms.end() ? 0.0 : it->second);
     }
     row.stages.emplace_back(st, median(v));
   }
@@ -285,7 +290,17 @@ int main(int argc, char** argv) try {
     std::vector<std::vector<Run>> per_mode(modes.size());
     for (const Scene& s : scenes) {
       for (std::size_t m = 0; m < modes.size(); ++m) {
-        per_mode[m].push_back(runScene(modes[m].second, s));
+        try {
+          per_mode[m].push_back(runScene(modes[m].second, s));
+        } catch (const std::exception& e) {
+          Run failed;
+          failed.points = s.current.size();
+          failed.error = e.what();
+          per_mode[m].push_back(failed);
+          std::fprintf(stderr, "  %-24s %-10s error: %s\n", s.name.c_str(),
+                       modes[m].first.c_str(), e.what());
+          continue;
+        }
         const Run& r = per_mode[m].back();
         std::fprintf(stderr, "  %-24s %-10s %7zu pts  %8.1f ms  f1 %.3f  %s\n", s.name.c_str(),
                      modes[m].first.c_str(), r.points, r.wall_ms, r.f1,
@@ -345,16 +360,16 @@ int main(int argc, char** argv) try {
   md << "| data | simplification | scenes | points (median) |";
   for (const auto& s : stage_order) md << " " << s << " [ms] |";
   md << " end to end [ms] | CPU [ms] | reference model [ms] | success | mean point F1 |"
-        " SQ radial error [mm] |\n|---|---|---:|---:|";
+        " SQ radial error [mm] | errors |\n|---|---|---:|---:|";
   for (std::size_t i = 0; i < stage_order.size(); ++i) md << "---:|";
-  md << "---:|---:|---:|---:|---:|---:|\n";
+  md << "---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows) {
     md << "| " << r.dataset << " | " << r.mode << " | " << r.scenes << " | "
        << fmt(r.points, 0) << " |";
     for (const auto& st : r.stages) md << " " << fmt(st.second, 1) << " |";
     md << " " << fmt(r.wall_ms, 1) << " | " << fmt(r.cpu_ms, 1) << " | "
        << fmt(r.reference_ms, 1) << " | " << fmt(100.0 * r.success_rate, 1) << " % | "
-       << fmt(r.mean_f1, 3) << " | " << fmt(r.sq_error_mm, 1) << " |\n";
+       << fmt(r.mean_f1, 3) << " | " << fmt(r.sq_error_mm, 1) << " | " << r.errors << " |\n";
   }
   md << "\nPaper (Table I, its 2012 machine, per scan, end to end):\n\n"
         "| data | points | time | success |\n|---|---:|---:|---:|\n"
@@ -369,12 +384,14 @@ int main(int argc, char** argv) try {
     std::ofstream csv(opt.csv);
     csv << "dataset,mode,scenes,points";
     for (const auto& s : stage_order) csv << "," << s << "_ms";
-    csv << ",end_to_end_ms,cpu_ms,reference_ms,success_rate,mean_f1,sq_radial_error_mm\n";
+    csv << ",end_to_end_ms,cpu_ms,reference_ms,success_rate,mean_f1,sq_radial_error_mm,"
+           "errors\n";
     for (const Row& r : rows) {
       csv << '"' << r.dataset << "\"," << r.mode << "," << r.scenes << "," << r.points;
       for (const auto& st : r.stages) csv << "," << st.second;
       csv << "," << r.wall_ms << "," << r.cpu_ms << "," << r.reference_ms << ","
-          << r.success_rate << "," << r.mean_f1 << "," << r.sq_error_mm << "\n";
+          << r.success_rate << "," << r.mean_f1 << "," << r.sq_error_mm << "," << r.errors
+          << "\n";
     }
   }
   return 0;
