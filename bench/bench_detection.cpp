@@ -3,8 +3,8 @@
 // and end-to-end detection on simulated sweeps of ~3k, ~30k and ~100k points (point F1
 // against exact ground truth, scene success as defined in evaluation.h).
 //
-//   .ws/devel/lib/novelty_detection/bench_detection --benchmark_repetitions=5 \
-//       --benchmark_report_aggregates_only=true
+//   bench_detection --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// (in .ws/devel/lib/novelty_detection/); --benchmark_filter=Suite runs the 30-scene suites.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Cholesky>
@@ -48,8 +48,8 @@ void BM_Em(benchmark::State& state) {
   d.points.resize(3, n);
   for (int i = 0; i < n; ++i) {
     const Gaussian& c = truth.components[i % 3];
-    d.points.col(i) = c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) *
-                                   Eigen::Vector3d(g(rng), g(rng), g(rng));
+    d.points.col(i) =
+        c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) * Eigen::Vector3d(g(rng), g(rng), g(rng));
   }
   GmmParams p;
   p.min_variance_m2 = 1e-6;
