@@ -115,8 +115,7 @@ int childReference(long size, int repeat) {
     wall.push_back(nowMs() - w0);
     cpu.push_back(cpuMs() - c0);
   }
-  std::printf("%zu %.3f %.3f %.1f\n", s.reference.size(), median(wall), median(cpu),
-              peakRssMb());
+  std::printf("%zu %.3f %.3f %.1f\n", s.reference.size(), median(wall), median(cpu), peakRssMb());
   return 0;
 }
 
@@ -182,12 +181,17 @@ int main(int argc, char** argv) try {
       if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
       return argv[++i];
     };
-    if (a == "--sizes") sizes = parseList(next());
-    else if (a == "--map-sizes") map_sizes = parseList(next());
-    else if (a == "--repeat") repeat = std::stoi(next());
-    else if (a == "--markdown") markdown = next();
-    else if (a == "--csv") csv = next();
-    else if (a == "-h" || a == "--help") {
+    if (a == "--sizes") {
+      sizes = parseList(next());
+    } else if (a == "--map-sizes") {
+      map_sizes = parseList(next());
+    } else if (a == "--repeat") {
+      repeat = std::stoi(next());
+    } else if (a == "--markdown") {
+      markdown = next();
+    } else if (a == "--csv") {
+      csv = next();
+    } else if (a == "-h" || a == "--help") {
       std::cout << kUsage;
       return 0;
     } else {
@@ -210,11 +214,11 @@ int main(int argc, char** argv) try {
     dx.push_back(v[0]);
     dy.push_back(v[1]);
     char line[256];
-    std::snprintf(line, sizeof line, "| %ld | %.0f | %.1f | %.1f | %.0f | %.0f | %.3f | %s |\n",
-                  n, v[0], v[1], v[2], v[3], v[4], v[5], v[6] ? "yes" : "no");
+    std::snprintf(line, sizeof line, "| %ld | %.0f | %.1f | %.1f | %.0f | %.0f | %.3f | %s |\n", n,
+                  v[0], v[1], v[2], v[3], v[4], v[5], v[6] ? "yes" : "no");
     md << line;
-    cs << "detect," << n << "," << v[0] << "," << v[1] << "," << v[2] << "," << v[3] << ","
-       << v[4] << "," << v[5] << "," << v[6] << "\n";
+    cs << "detect," << n << "," << v[0] << "," << v[1] << "," << v[2] << "," << v[3] << "," << v[4]
+       << "," << v[5] << "," << v[6] << "\n";
   }
   md << "\nGrowth exponent (log-log slope of end-to-end time over points): "
      << (dx.size() >= 2 ? std::to_string(logLogSlope(dx, dy)) : std::string("-")) << "\n\n";
@@ -231,8 +235,7 @@ int main(int argc, char** argv) try {
     std::snprintf(line, sizeof line, "| %ld | %.0f | %.1f | %.1f | %.0f |\n", n, v[0], v[1], v[2],
                   v[3]);
     md << line;
-    cs << "reference," << n << "," << v[0] << "," << v[1] << "," << v[2] << ",," << v[3]
-       << ",,\n";
+    cs << "reference," << n << "," << v[0] << "," << v[1] << "," << v[2] << ",," << v[3] << ",,\n";
   }
   md << "\nGrowth exponent of the reference build: "
      << (rx.size() >= 2 ? std::to_string(logLogSlope(rx, ry)) : std::string("-")) << "\n";

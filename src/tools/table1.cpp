@@ -154,8 +154,8 @@ Run runScene(const Params& params, const Scene& s) {
   return run;
 }
 
-Row summarize(const std::string& dataset, const std::string& mode,
-              const std::vector<Run>& runs, const std::vector<std::string>& stage_order) {
+Row summarize(const std::string& dataset, const std::string& mode, const std::vector<Run>& runs,
+              const std::vector<std::string>& stage_order) {
   Row row;
   row.dataset = dataset;
   row.mode = mode;
@@ -214,8 +214,7 @@ Scene loadRealPair(const RealPair& p) {
     if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))) continue;
     s.current.push_back(PointT(q.x, q.y, q.z));
     const int id = static_cast<int>(q.label / 10);
-    const bool novel =
-        std::find(p.novel_ids.begin(), p.novel_ids.end(), id) != p.novel_ids.end();
+    const bool novel = std::find(p.novel_ids.begin(), p.novel_ids.end(), id) != p.novel_ids.end();
     s.truth.push_back(novel ? id : 0);
   }
   return s;
@@ -297,14 +296,13 @@ int main(int argc, char** argv) try {
           failed.points = s.current.size();
           failed.error = e.what();
           per_mode[m].push_back(failed);
-          std::fprintf(stderr, "  %-24s %-10s error: %s\n", s.name.c_str(),
-                       modes[m].first.c_str(), e.what());
+          std::fprintf(stderr, "  %-24s %-10s error: %s\n", s.name.c_str(), modes[m].first.c_str(),
+                       e.what());
           continue;
         }
         const Run& r = per_mode[m].back();
         std::fprintf(stderr, "  %-24s %-10s %7zu pts  %8.1f ms  f1 %.3f  %s\n", s.name.c_str(),
-                     modes[m].first.c_str(), r.points, r.wall_ms, r.f1,
-                     r.success ? "ok" : "FAIL");
+                     modes[m].first.c_str(), r.points, r.wall_ms, r.f1, r.success ? "ok" : "FAIL");
       }
     }
     for (const auto& runs : per_mode) addStages(runs);
@@ -342,8 +340,7 @@ int main(int argc, char** argv) try {
   }
   for (const RealPair& p : opt.real) {
     if (!fs::exists(p.before) || !fs::exists(p.after)) {
-      std::fprintf(stderr, "skipping %s -> %s: file missing\n", p.before.c_str(),
-                   p.after.c_str());
+      std::fprintf(stderr, "skipping %s -> %s: file missing\n", p.before.c_str(), p.after.c_str());
       continue;
     }
     const Scene s = loadRealPair(p);
@@ -364,12 +361,12 @@ int main(int argc, char** argv) try {
   for (std::size_t i = 0; i < stage_order.size(); ++i) md << "---:|";
   md << "---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows) {
-    md << "| " << r.dataset << " | " << r.mode << " | " << r.scenes << " | "
-       << fmt(r.points, 0) << " |";
+    md << "| " << r.dataset << " | " << r.mode << " | " << r.scenes << " | " << fmt(r.points, 0)
+       << " |";
     for (const auto& st : r.stages) md << " " << fmt(st.second, 1) << " |";
-    md << " " << fmt(r.wall_ms, 1) << " | " << fmt(r.cpu_ms, 1) << " | "
-       << fmt(r.reference_ms, 1) << " | " << fmt(100.0 * r.success_rate, 1) << " % | "
-       << fmt(r.mean_f1, 3) << " | " << fmt(r.sq_error_mm, 1) << " | " << r.errors << " |\n";
+    md << " " << fmt(r.wall_ms, 1) << " | " << fmt(r.cpu_ms, 1) << " | " << fmt(r.reference_ms, 1)
+       << " | " << fmt(100.0 * r.success_rate, 1) << " % | " << fmt(r.mean_f1, 3) << " | "
+       << fmt(r.sq_error_mm, 1) << " | " << r.errors << " |\n";
   }
   md << "\nPaper (Table I, its 2012 machine, per scan, end to end):\n\n"
         "| data | points | time | success |\n|---|---:|---:|---:|\n"
@@ -389,9 +386,8 @@ int main(int argc, char** argv) try {
     for (const Row& r : rows) {
       csv << '"' << r.dataset << "\"," << r.mode << "," << r.scenes << "," << r.points;
       for (const auto& st : r.stages) csv << "," << st.second;
-      csv << "," << r.wall_ms << "," << r.cpu_ms << "," << r.reference_ms << ","
-          << r.success_rate << "," << r.mean_f1 << "," << r.sq_error_mm << "," << r.errors
-          << "\n";
+      csv << "," << r.wall_ms << "," << r.cpu_ms << "," << r.reference_ms << "," << r.success_rate
+          << "," << r.mean_f1 << "," << r.sq_error_mm << "," << r.errors << "\n";
     }
   }
   return 0;

@@ -16,9 +16,9 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path tempDir() {
-  const fs::path d = fs::temp_directory_path() /
-                     ("perf_tools_" + std::to_string(::getpid()) + "_" +
-                      ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  const fs::path d =
+      fs::temp_directory_path() / ("perf_tools_" + std::to_string(::getpid()) + "_" +
+                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
   fs::create_directories(d);
   return d;
 }
@@ -55,10 +55,11 @@ std::size_t column(const std::vector<std::string>& header, const std::string& na
 
 TEST(Table1Tool, FirstSuiteSceneIsFoundWithAndWithoutSimplification) {
   const fs::path d = tempDir();
-  ASSERT_EQ(run("table1", "--scenes 1 --csv " + (d / "t.csv").string() +
-                              " --real missing_a.pcd missing_b.pcd 2",
-                d),
-            0);
+  ASSERT_EQ(
+      run("table1",
+          "--scenes 1 --csv " + (d / "t.csv").string() + " --real missing_a.pcd missing_b.pcd 2",
+          d),
+      0);
   const auto rows = readCsv(d / "t.csv");
   ASSERT_EQ(rows.size(), 3u);  // header + simplified + finest cut; the missing pair skipped
   const auto& h = rows[0];
@@ -80,9 +81,8 @@ TEST(Table1Tool, FirstSuiteSceneIsFoundWithAndWithoutSimplification) {
 
 TEST(ScalingTool, OneSweepAndOneMapInChildProcesses) {
   const fs::path d = tempDir();
-  ASSERT_EQ(run("scaling", "--sizes 3000 --map-sizes 10000 --repeat 1 --csv " +
-                               (d / "s.csv").string(),
-                d),
+  ASSERT_EQ(run("scaling",
+                "--sizes 3000 --map-sizes 10000 --repeat 1 --csv " + (d / "s.csv").string(), d),
             0);
   const auto rows = readCsv(d / "s.csv");
   ASSERT_EQ(rows.size(), 3u);
