@@ -84,30 +84,45 @@ struct MultiScaleParams {
   void validate() const;
 };
 
-/// Gaussian mixture fitting by EM.
+/// Gaussian mixture fitting by EM (paper Sec. IV-B; rules in gmm.h).
 struct GmmParams {
-  int max_components = 64;        ///< cap on the number of Gaussians
-  int max_iterations = 50;        ///< EM iteration cap
-  double tolerance = 1e-4;        ///< stop when the mean log-likelihood gains less
-  double min_variance_m2 = 1e-4;  ///< added to covariance diagonals (planar clusters)
-  int seed = 42;                  ///< RNG seed (determinism)
+  int max_components = 64;            ///< cap on the number of Gaussians (the paper's speed cap)
+  double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
+  int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
+  int max_iterations = 30;            ///< EM iteration cap
+  double tolerance = 1e-3;            ///< stop when the mean log-likelihood gains less [nats]
+  double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
+  bool current_from_reference = true; ///< start the current EM from the reference mixture
+  int max_extra_components = 16;      ///< extra current Gaussians seeded where the map has none
+  int seed = 42;                      ///< RNG seed (determinism)
 
   template <class F>
   void visit(F&& f) {
     f("max_components", max_components, "maximum number of Gaussians per mixture");
+    f("points_per_component", points_per_component,
+      "number of Gaussians = clamp(ceil(points / points_per_component), 1, max_components)");
+    f("max_fit_points", max_fit_points,
+      "EM is fitted on the multi-scale cut, coarsened until it has about this many clusters");
     f("max_iterations", max_iterations, "EM iteration cap");
     f("tolerance", tolerance, "EM stops when the mean log-likelihood gains less than this");
     f("min_variance_m2", min_variance_m2, "covariance regularisation added to the diagonal [m^2]");
+    f("current_from_reference", current_from_reference,
+      "start EM on the current sweep from the reference mixture plus Gaussians seeded on "
+      "points far from the map (else k-means++ from scratch)");
+    f("max_extra_components", max_extra_components,
+      "maximum number of Gaussians seeded on current points far from the reference");
     f("seed", seed, "random seed; results are deterministic for a seed");
   }
   void validate() const;
 };
 
-/// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1).
+/// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1;
+/// the stop rule is stated in novelty_selection.h).
 struct SelectionParams {
   std::string ground_distance = "wasserstein";  ///< "wasserstein" or "euclidean"
-  double min_relative_decrease = 0.05;  ///< stop when a removal lowers EMD by less (fraction)
+  double min_relative_decrease = 0.02;  ///< stop when a removal lowers EMD by less (fraction)
   double u_th = 0.0;                    ///< stop when EMD falls below this [m]
+  double u_th_noise_factor = 0.1;       ///< ... or below this times the novelty distance
   int max_novel_gaussians = 32;         ///< cap on selected Gaussians
 
   template <class F>
@@ -117,6 +132,9 @@ struct SelectionParams {
     f("min_relative_decrease", min_relative_decrease,
       "greedy selection stops when the best removal lowers the EMD by less than this fraction");
     f("u_th", u_th, "greedy selection stops when the EMD falls below this [m]");
+    f("u_th_noise_factor", u_th_noise_factor,
+      "... or below u_th_noise_factor times the data-derived novelty distance "
+      "(segmentation/novelty_distance_factor)");
     f("max_novel_gaussians", max_novel_gaussians, "maximum number of novel Gaussians");
   }
   void validate() const;
@@ -124,26 +142,74 @@ struct SelectionParams {
 
 /// Labelling every input point from the novel Gaussians (ChoosePtfromGaussian).
 struct SegmentationParams {
-  double posterior_threshold = 0.5;  ///< min posterior of the novel Gaussians
-  int min_segment_points = 20;       ///< smaller segments are dropped
+  double posterior_threshold = 0.5;     ///< min posterior of the novel Gaussians
+  double novelty_distance_factor = 6.0; ///< tau = median + factor * 1.4826 MAD of NN distances
+  double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
+  double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
+  double merge_gap_factor = 4.0;        ///< pieces of one Gaussian this close merge
+  int min_segment_points = 20;          ///< smaller segments are dropped
+  double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
+  bool visibility_check = true;          ///< novel points must lie where the map saw through
+  double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
+  bool hidden_unexplained = false; ///< points hidden from the map may be novel if unexplained
 
   template <class F>
   void visit(F&& f) {
     f("posterior_threshold", posterior_threshold,
       "a point is novel when the novel Gaussians' posterior exceeds this");
+    f("novelty_distance_factor", novelty_distance_factor,
+      "a novel point must lie farther from the map than tau = median + factor * 1.4826 * MAD "
+      "of the current-to-reference nearest-neighbour distances");
+    f("min_novelty_distance_m", min_novelty_distance_m, "lower bound of tau [m]");
+    f("link_factor", link_factor,
+      "novel points closer than link_factor * their median 4-NN spacing join one segment");
+    f("merge_gap_factor", merge_gap_factor,
+      "connected pieces mostly owned by the same novel Gaussian merge into one segment when "
+      "their bounding boxes are closer than merge_gap_factor link radii");
     f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
+    f("map_likelihood_quantile", map_likelihood_quantile,
+      "a point whose density under the reference mixture exceeds this quantile of the map's "
+      "own points' densities lies on a mapped surface and is not novel (0 disables)");
+    f("visibility_check", visibility_check,
+      "a novel point must lie in space the reference sweep saw through (needs the reference "
+      "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin)");
+    f("visibility_angle_deg", visibility_angle_deg,
+      "half-angle of the cone around a ray in which map returns are compared [deg]");
+    f("hidden_unexplained", hidden_unexplained,
+      "a point the reference could not see is still novel when the reference mixture does not "
+      "explain it (density below the map_likelihood_quantile of the map's own points)");
   }
   void validate() const;
 };
 
-/// Superquadric recovery: LM fit (eq. 3), multi-scale refinement, split and merge.
+/// Superquadric recovery (Sec. V): LM fit of eq. 3, multi-scale refinement, split and merge.
+/// Sizes are bounded relative to h, the largest half extent of the fitted points along their
+/// principal axes, so the bounds scale with the data.
 struct SuperquadricParams {
-  bool enabled = true;          ///< fit superquadrics to segments
-  double epsilon_min = 0.1;     ///< lower bound of e1, e2
-  double epsilon_max = 1.9;     ///< upper bound of e1, e2
-  int max_iterations = 50;      ///< LM iteration cap per fit
-  int split_min_points = 40;    ///< a part is not split into halves smaller than this
-  int max_parts = 8;            ///< cap on superquadrics per segment
+  bool enabled = true;              ///< fit superquadrics to segments
+  double epsilon_min = 0.1;         ///< lower bound of e1, e2
+  double epsilon_max = 1.9;         ///< upper bound of e1, e2
+  int max_iterations = 50;          ///< LM iteration cap per fit
+  double function_tolerance = 1e-6; ///< LM stops when the cost changes relatively less
+  bool autodiff = false;            ///< Jets instead of the analytic Jacobian (reference)
+  double min_size_m = 0.005;        ///< absolute lower bound of a1, a2, a3 [m]
+  double min_size_fraction = 0.05;  ///< sizes >= this fraction of h (no flat-disc collapse)
+  double max_size_factor = 1.25;    ///< sizes <= this multiple of h (no explosion)
+  std::string robust_loss = "none"; ///< "none", "huber" or "cauchy"
+  double robust_loss_scale = 0.2;   ///< loss scale as a fraction of sqrt(a1 a2 a3)
+  int screening_points = 64;        ///< points used to compare the initial guesses
+  int screening_iterations = 5;     ///< LM iterations per initial guess while comparing
+  int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
+  int split_max_points = 2400;      ///< split and merge works on at most this many points
+  int split_min_points = 40;        ///< a part is not split into halves smaller than this
+  int split_fit_points = 80;        ///< parts are subsampled to this while splitting/merging
+  double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
+  double split_force_factor = 1.25; ///< split regardless of gain above this x exact error
+  double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
+  double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
+  double noise_factor = 1.5;        ///< ... and so are fits within this x estimated noise
+  double neighbour_distance_factor = 1.0;  ///< parts touch within this x neighbourhood radius
+  int max_parts = 8;                ///< cap on superquadrics per segment
 
   template <class F>
   void visit(F&& f) {
@@ -151,7 +217,49 @@ struct SuperquadricParams {
     f("epsilon_min", epsilon_min, "lower bound of the shape exponents e1, e2");
     f("epsilon_max", epsilon_max, "upper bound of the shape exponents e1, e2");
     f("max_iterations", max_iterations, "Levenberg-Marquardt iteration cap per fit");
+    f("function_tolerance", function_tolerance,
+      "Levenberg-Marquardt stops when the cost changes relatively less than this");
+    f("autodiff", autodiff,
+      "use automatic differentiation instead of the (equal, faster) analytic Jacobian");
+    f("min_size_m", min_size_m, "absolute lower bound of the half sizes a1, a2, a3 [m]");
+    f("min_size_fraction", min_size_fraction,
+      "half sizes are at least this fraction of the points' largest half extent");
+    f("max_size_factor", max_size_factor,
+      "half sizes (and the centre's offset) are at most this multiple of the largest half "
+      "extent");
+    f("robust_loss", robust_loss, "robust loss on eq. 3's residuals: none, huber or cauchy");
+    f("robust_loss_scale", robust_loss_scale,
+      "robust loss scale as a fraction of sqrt(a1 a2 a3) of the start model");
+    f("screening_points", screening_points,
+      "points used to compare the initial guesses of a fit");
+    f("screening_iterations", screening_iterations,
+      "Levenberg-Marquardt iterations per initial guess while comparing them");
+    f("max_fit_points", max_fit_points,
+      "a segment's points are deterministically subsampled to at most this many");
+    f("split_max_points", split_max_points,
+      "split and merge works on a deterministic subsample of at most this many points");
     f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
+    f("split_fit_points", split_fit_points,
+      "parts are subsampled to at most this many points for split and merge fits");
+    f("split_gain", split_gain,
+      "split a part when the halves' points-weighted mean distance is below "
+      "split_gain times the part's");
+    f("split_force_factor", split_force_factor,
+      "a part whose mean distance exceeds split_force_factor times the exact-fit level is "
+      "split even if its halves do not fit better");
+    f("merge_tolerance", merge_tolerance,
+      "merge two neighbours when the merged fit is exact, or its mean distance is at most "
+      "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
+      "merge_tolerance) times their sum");
+    f("error_floor_m", error_floor_m,
+      "a fit with a smaller mean distance to its points is exact: it is not split, merges into it are "
+      "allowed [m]");
+    f("noise_factor", noise_factor,
+      "a fit whose mean distance is below noise_factor times the estimated sensor noise "
+      "(local plane RMS) is exact: it is not split, merges into it are allowed");
+    f("neighbour_distance_factor", neighbour_distance_factor,
+      "two parts are neighbours when their points come closer than this times the radius of a "
+      "typical two-dimensional 12-point neighbourhood");
     f("max_parts", max_parts, "maximum number of superquadrics per segment");
   }
   void validate() const;

@@ -29,6 +29,8 @@ class Pipeline {
   bool hasReference() const { return reference_ != nullptr; }
   /// The reference cloud as given to setReference (for saving it).
   const Cloud& referenceCloud() const;
+  /// The reference mixture Gamma (empty without a reference).
+  const Gmm& referenceGmm() const;
 
   /// Compares `current` with the reference. Every input point gets a label (NaNs: 0).
   /// Throws std::logic_error without a reference, std::invalid_argument for a cloud

@@ -8,8 +8,6 @@
 
 namespace novelty_detection {
 
-using Points3d = std::vector<Eigen::Vector3d>;
-
 class ShapeRetrieval {
  public:
   explicit ShapeRetrieval(const SuperquadricParams& params);

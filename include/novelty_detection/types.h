@@ -16,6 +16,8 @@ using PointT = pcl::PointXYZ;
 using Cloud = pcl::PointCloud<PointT>;
 /// Indices into a cloud (PCL convention: int).
 using Indices = std::vector<int>;
+/// A plain list of 3D points [m] (what the geometry code works on).
+using Points3d = std::vector<Eigen::Vector3d>;
 
 /// One component of a Gaussian mixture (metres, square metres).
 struct Gaussian {

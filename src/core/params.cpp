@@ -38,9 +38,12 @@ void MultiScaleParams::validate() const {
 
 void GmmParams::validate() const {
   requireRange("gmm/max_components", max_components, 1, 4096);
+  requireRange("gmm/points_per_component", points_per_component, 1.0, 1e9);
+  requireRange("gmm/max_fit_points", max_fit_points, 1, 100000000);
   requireRange("gmm/max_iterations", max_iterations, 1, 10000);
   requireRange("gmm/tolerance", tolerance, 0.0, 1.0);
   requireRange("gmm/min_variance_m2", min_variance_m2, 1e-12, 1.0);
+  requireRange("gmm/max_extra_components", max_extra_components, 0, 4096);
   requireRange("gmm/seed", seed, 0, 2147483647);
 }
 
@@ -51,12 +54,19 @@ void SelectionParams::validate() const {
   }
   requireRange("selection/min_relative_decrease", min_relative_decrease, 0.0, 1.0);
   requireRange("selection/u_th", u_th, 0.0, 1000.0);
+  requireRange("selection/u_th_noise_factor", u_th_noise_factor, 0.0, 1000.0);
   requireRange("selection/max_novel_gaussians", max_novel_gaussians, 0, 4096);
 }
 
 void SegmentationParams::validate() const {
   requireRange("segmentation/posterior_threshold", posterior_threshold, 0.0, 1.0);
+  requireRange("segmentation/novelty_distance_factor", novelty_distance_factor, 0.0, 1000.0);
+  requireRange("segmentation/min_novelty_distance_m", min_novelty_distance_m, 0.0, 100.0);
+  requireRange("segmentation/link_factor", link_factor, 0.1, 100.0);
+  requireRange("segmentation/merge_gap_factor", merge_gap_factor, 0.0, 1000.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
+  requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
+  requireRange("segmentation/visibility_angle_deg", visibility_angle_deg, 0.01, 45.0);
 }
 
 void SuperquadricParams::validate() const {
@@ -66,7 +76,27 @@ void SuperquadricParams::validate() const {
     throw std::invalid_argument("parameter superquadric/epsilon_min must be below epsilon_max");
   }
   requireRange("superquadric/max_iterations", max_iterations, 1, 10000);
+  requireRange("superquadric/function_tolerance", function_tolerance, 0.0, 1.0);
+  requireRange("superquadric/min_size_m", min_size_m, 1e-6, 100.0);
+  requireRange("superquadric/min_size_fraction", min_size_fraction, 0.0, 1.0);
+  requireRange("superquadric/max_size_factor", max_size_factor, 1.0, 100.0);
+  if (robust_loss != "none" && robust_loss != "huber" && robust_loss != "cauchy") {
+    throw std::invalid_argument("parameter superquadric/robust_loss = '" + robust_loss +
+                                "' must be 'none', 'huber' or 'cauchy'");
+  }
+  requireRange("superquadric/robust_loss_scale", robust_loss_scale, 1e-6, 100.0);
+  requireRange("superquadric/screening_points", screening_points, 11, 100000000);
+  requireRange("superquadric/screening_iterations", screening_iterations, 0, 10000);
+  requireRange("superquadric/max_fit_points", max_fit_points, 11, 100000000);
+  requireRange("superquadric/split_max_points", split_max_points, 11, 100000000);
   requireRange("superquadric/split_min_points", split_min_points, 4, 100000000);
+  requireRange("superquadric/split_fit_points", split_fit_points, 11, 100000000);
+  requireRange("superquadric/split_gain", split_gain, 0.0, 1.0);
+  requireRange("superquadric/split_force_factor", split_force_factor, 1.0, 1e6);
+  requireRange("superquadric/merge_tolerance", merge_tolerance, 0.0, 10.0);
+  requireRange("superquadric/error_floor_m", error_floor_m, 0.0, 10.0);
+  requireRange("superquadric/noise_factor", noise_factor, 0.0, 100.0);
+  requireRange("superquadric/neighbour_distance_factor", neighbour_distance_factor, 0.5, 100.0);
   requireRange("superquadric/max_parts", max_parts, 1, 1024);
 }
 

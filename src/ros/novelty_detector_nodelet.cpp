@@ -1,20 +1,356 @@
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 
-#include <pluginlib/class_list_macros.hpp>
 #include <std_msgs/String.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+#include <pluginlib/class_list_macros.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <sstream>
+
+#include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/result_messages.h"
+#include "novelty_detection/ros/ros_params.h"
 
 namespace novelty_detection {
+namespace {
+
+const char* reasonName(tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  switch (reason) {
+    case tf2_ros::filter_failure_reasons::OutTheBack:
+      return "the sweep is older than the transform buffer";
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+      return "the sweep has an empty frame_id";
+    default:
+      return "no transform arrived before the queue overflowed";
+  }
+}
+
+/// Box of the finite points; false when there is none.
+bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
+  lo.setConstant(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  bool any = false;
+  for (const auto& p : cloud) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    const Eigen::Vector3d v(p.x, p.y, p.z);
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+    any = true;
+  }
+  return any;
+}
+
+}  // namespace
 
 NoveltyDetectorNodelet::NoveltyDetectorNodelet() = default;
-NoveltyDetectorNodelet::~NoveltyDetectorNodelet() = default;
+
+NoveltyDetectorNodelet::~NoveltyDetectorNodelet() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_ = true;
+  }
+  queue_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  // The filter calls back into this object: stop it before the rest goes away.
+  tf_filter_.reset();
+  input_sub_.shutdown();
+}
+
+void NoveltyDetectorNodelet::publishStatus(const std::string& status) {
+  std_msgs::String msg;
+  msg.data = status;
+  status_pub_.publish(msg);
+}
 
 void NoveltyDetectorNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   status_pub_ = pnh.advertise<std_msgs::String>("status", 1, true);
-  std_msgs::String msg;
-  msg.data = "ready";
-  status_pub_.publish(msg);
-  NODELET_INFO("novelty detector started");
+
+  // Parameters: the same names as config/default.yaml (~group/name), defaults from the
+  // core's structs; an invalid value refuses to start.
+  try {
+    params_ = loadRosParams(pnh);
+    node_params_ = loadNodeParams(pnh);
+    reference_ = std::make_unique<TiledReference>(
+        params_, node_params_.tile_size_m, static_cast<std::size_t>(node_params_.tile_cache_size));
+  } catch (const std::exception& e) {
+    params_error_ = e.what();
+    NODELET_FATAL("novelty detector refuses to start: %s", e.what());
+    publishStatus(std::string("error: invalid parameters: ") + e.what());
+    return;
+  }
+
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+
+  novelty_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("novelty_cloud", 1);
+  labelled_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("labelled_cloud", 1);
+  superquadrics_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("superquadrics", 1, true);
+  gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
+  novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
+
+  capture_srv_ =
+      pnh.advertiseService("capture_reference", &NoveltyDetectorNodelet::onCaptureReference, this);
+  set_srv_ = pnh.advertiseService("set_reference", &NoveltyDetectorNodelet::onSetReference, this);
+  save_srv_ =
+      pnh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
+  detect_srv_ = pnh.advertiseService("detect", &NoveltyDetectorNodelet::onDetect, this);
+
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+  diagnostics_->setHardwareID("none");
+  diagnostics_->add("novelty detector", this, &NoveltyDetectorNodelet::diagnose);
+  diagnostics_timer_ = pnh.createWallTimer(
+      ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+
+  // The worker loads the reference file (possibly large) so that onInit never blocks.
+  worker_ = std::thread(&NoveltyDetectorNodelet::workerLoop, this);
+
+  tf_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(
+      *tf_buffer_, node_params_.fixed_frame, node_params_.input_queue_size, nh);
+  tf_filter_->registerCallback(&NoveltyDetectorNodelet::onTransformable, this);
+  tf_filter_->registerFailureCallback(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg,
+             tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+        onTransformFailure(msg, reason);
+      });
+  input_sub_ = pnh.subscribe("input", 2, &NoveltyDetectorNodelet::onInput, this);
+
+  publishStatus("ready");
+  NODELET_INFO("novelty detector ready: fixed frame '%s', input %s",
+               node_params_.fixed_frame.c_str(), input_sub_.getTopic().c_str());
+}
+
+void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  try {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++received_;
+    }
+    // The tf filter waits silently for frames that never come: say so at once.
+    if (msg->header.frame_id.empty()) {
+      warnThrottled("frame", "sweep has an empty frame_id; it is dropped");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++rejected_;
+      return;
+    }
+    if (!tf_buffer_->_frameExists(msg->header.frame_id)) {
+      warnThrottled("frame", "sweep frame '" + msg->header.frame_id +
+                                 "' is unknown to tf (yet); it waits for a transform to '" +
+                                 node_params_.fixed_frame + "'");
+    }
+    tf_filter_->add(msg);
+  } catch (const std::exception& e) {
+    NODELET_ERROR_THROTTLE(kWarnPeriodS, "sweep refused: %s", e.what());
+  }
+}
+
+void NoveltyDetectorNodelet::onTransformFailure(
+    const sensor_msgs::PointCloud2::ConstPtr& msg,
+    tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++tf_failures_;
+  }
+  NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep from frame '%s' at %.3f dropped: %s (to '%s')",
+                        msg->header.frame_id.c_str(), msg->header.stamp.toSec(), reasonName(reason),
+                        node_params_.fixed_frame.c_str());
+}
+
+void NoveltyDetectorNodelet::onTransformable(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (pending_) {
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++dropped_;  // the newest sweep wins
+    }
+    pending_ = msg;
+  }
+  queue_cv_.notify_one();
+}
+
+void NoveltyDetectorNodelet::workerLoop() {
+  if (!node_params_.reference_file.empty()) loadReferenceFile(node_params_.reference_file);
+  while (true) {
+    sensor_msgs::PointCloud2::ConstPtr msg;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return stop_ || pending_; });
+      if (stop_) return;
+      msg.swap(pending_);
+    }
+    try {
+      processSweep(msg);
+    } catch (...) {  // processSweep catches std::exception; never let the thread die
+      NODELET_ERROR("unexpected non-standard exception while processing a sweep");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++failed_;
+    }
+  }
+}
+
+void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
+  try {
+    const CloudFile file = loadCloudFile(path);
+    reference_->setMap(withViewpoint(file));
+    NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
+  } catch (const std::exception& e) {
+    NODELET_ERROR("cannot use reference file: %s", e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    last_error_ = e.what();
+  }
+}
+
+Cloud NoveltyDetectorNodelet::toFixedFrame(const sensor_msgs::PointCloud2& msg,
+                                           bool wait_for_transform) const {
+  Cloud cloud = fromPointCloud2(msg);
+  const std::string frame =
+      msg.header.frame_id.empty() ? node_params_.fixed_frame : msg.header.frame_id;
+  if (frame == node_params_.fixed_frame) return cloud;
+  std::string why;
+  if (wait_for_transform &&
+      !tf_buffer_->canTransform(node_params_.fixed_frame, frame, msg.header.stamp, &why)) {
+    throw std::runtime_error("no transform from '" + frame + "' to '" + node_params_.fixed_frame +
+                             "': " + why);
+  }
+  const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
+      tf_buffer_->lookupTransform(node_params_.fixed_frame, frame, msg.header.stamp));
+  const Eigen::Isometry3f T = T_fixed_sensor.cast<float>();
+  for (auto& p : cloud) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    p.getVector3fMap() = T * p.getVector3fMap();
+  }
+  return cloud;
+}
+
+Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& cloud_frame,
+                                      const ros::Time& stamp) const {
+  Eigen::Vector3d lo, hi;
+  if (!finiteBounds(cloud, lo, hi)) {
+    throw std::invalid_argument("the sweep has no finite point (" + std::to_string(cloud.size()) +
+                                " points)");
+  }
+  // Compare only the part of the map this sweep can see: its extent plus a margin, and
+  // within the sensor's range of its origin when the sensor frame is known.
+  lo.array() -= node_params_.crop_margin_m;
+  hi.array() += node_params_.crop_margin_m;
+  // The sensor sits at ~sensor_frame, or else at the origin of the cloud's own frame when
+  // that is not the fixed frame (a sweep in the laser frame).
+  const std::string sensor_frame =
+      node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
+  if (!sensor_frame.empty() && sensor_frame != node_params_.fixed_frame) {
+    try {
+      const auto T = tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp);
+      const Eigen::Vector3d origin(T.transform.translation.x, T.transform.translation.y,
+                                   T.transform.translation.z);
+      const Eigen::Vector3d range = Eigen::Vector3d::Constant(node_params_.sensor_range_m);
+      lo = lo.cwiseMax(origin - range);
+      hi = hi.cwiseMin(origin + range);
+    } catch (const tf2::TransformException& e) {
+      NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor origin, cropping by extent only: %s",
+                            e.what());
+    }
+  }
+  return reference_->pipelineFor(lo, hi)->detect(cloud);
+}
+
+void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Cloud cloud;
+  try {
+    cloud = toFixedFrame(*msg, false);
+    std::size_t finite = 0;
+    for (const auto& p : cloud) {
+      finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+    }
+    if (finite == 0) {
+      throw std::invalid_argument(cloud.empty()
+                                      ? "the sweep is empty"
+                                      : "the sweep has no finite point (" +
+                                            std::to_string(cloud.size()) + " points, all NaN/inf)");
+    }
+  } catch (const std::exception& e) {
+    warnThrottled("rejected", std::string("sweep rejected: ") + e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++rejected_;
+    last_error_ = e.what();
+    return;
+  }
+
+  std_msgs::Header header = msg->header;
+  header.frame_id = node_params_.fixed_frame;
+  if (capture_next_.exchange(false)) {
+    try {
+      // The sensor pose becomes the reference's viewpoint (free-space check).
+      const std::string sensor_frame =
+          node_params_.sensor_frame.empty() ? msg->header.frame_id : node_params_.sensor_frame;
+      if (sensor_frame != node_params_.fixed_frame) {
+        try {
+          const Eigen::Isometry3d T = tf2::transformToEigen(tf_buffer_->lookupTransform(
+              node_params_.fixed_frame, sensor_frame, msg->header.stamp));
+          cloud.sensor_origin_.head<3>() = T.translation().cast<float>();
+          cloud.sensor_orientation_ = Eigen::Quaternionf(T.linear().cast<float>());
+        } catch (const tf2::TransformException& e) {
+          NODELET_WARN("captured reference without a viewpoint: %s", e.what());
+        }
+      }
+      reference_->setMap(cloud);
+      NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
+                   cloud.size());
+    } catch (const std::exception& e) {
+      NODELET_ERROR("capturing the reference failed: %s", e.what());
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++failed_;
+      last_error_ = e.what();
+    }
+    return;
+  }
+  if (!reference_->hasMap()) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS,
+                          "no reference map yet: set ~reference_file or call "
+                          "~capture_reference / ~set_reference");
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++rejected_;
+    last_error_ = "no reference map";
+    return;
+  }
+
+  try {
+    const Result result = detect(cloud, msg->header.frame_id, msg->header.stamp);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
+    novelty_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, true));
+    if (labelled_cloud_pub_.getNumSubscribers() > 0) {
+      labelled_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, false));
+    }
+    superquadrics_pub_.publish(superquadricMarkers(result, header));
+    gaussians_pub_.publish(gaussianMarkers(result, header));
+
+    std::size_t novel_points = 0;
+    for (int l : result.labels) novel_points += l > 0;
+    std::ostringstream summary;
+    summary << result.segments.size() << " novelties, " << novel_points << " novel points, "
+            << result.superquadrics.size() << " superquadrics, EMD " << result.emd_before << " -> "
+            << result.emd_after;
+    NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++processed_;
+    last_processing_ms_ = ms;
+    max_processing_ms_ = std::max(max_processing_ms_, ms);
+    last_result_ = summary.str();
+  } catch (const std::exception& e) {
+    warnThrottled("failed", std::string("detection failed: ") + e.what());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++failed_;
+    last_error_ = e.what();
+  }
 }
 
 }  // namespace novelty_detection

@@ -1,7 +1,214 @@
-// novelty_detect: not implemented yet.
-#include <iostream>
+// novelty_detect: compares a current sweep with a reference map (the contract in DESIGN.md).
+//
+//   novelty_detect --reference REF.pcd --current CUR.pcd --out DIR [--config FILE.yaml]
+//
+// Writes DIR/labels.txt (one label per point of CUR, input order), DIR/superquadrics.json,
+// DIR/report.json and DIR/segments.pcd (CUR coloured by segment). Exits non-zero with one
+// line on stderr for bad arguments, unreadable input or an invalid configuration.
+#include <pcl/io/pcd_io.h>
 
-int main() {
-  std::cerr << "novelty_detect: not implemented yet\n";
-  return 1;
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/params_io.h"
+#include "novelty_detection/pipeline.h"
+
+namespace nd = novelty_detection;
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: novelty_detect --reference REF.pcd|.ply --current CUR.pcd|.ply --out DIR "
+    "[--config FILE.yaml]";
+
+struct Args {
+  std::string reference, current, out, config;
+};
+
+Args parseArgs(int argc, char** argv) {
+  Args a;
+  std::map<std::string, std::string*> opts{{"--reference", &a.reference},
+                                           {"--current", &a.current},
+                                           {"--out", &a.out},
+                                           {"--config", &a.config}};
+  for (int i = 1; i < argc; ++i) {
+    const std::string key = argv[i];
+    const auto it = opts.find(key);
+    if (it == opts.end()) throw std::invalid_argument("unknown argument '" + key + "'");
+    if (i + 1 >= argc) throw std::invalid_argument(key + " needs a value");
+    *it->second = argv[++i];
+  }
+  if (a.reference.empty() || a.current.empty() || a.out.empty()) {
+    throw std::invalid_argument("--reference, --current and --out are required");
+  }
+  return a;
+}
+
+json vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+void writeText(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw std::runtime_error("cannot write " + path);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+// A distinct, deterministic colour per segment id (golden-ratio hue walk); grey = not novel.
+void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
+  if (id <= 0) {
+    r = g = b = 150;
+    return;
+  }
+  const double h = std::fmod(id * 0.618033988749895, 1.0) * 6.0;
+  const double x = 1.0 - std::abs(std::fmod(h, 2.0) - 1.0);
+  double rf = 0, gf = 0, bf = 0;
+  switch (static_cast<int>(h)) {
+    case 0: rf = 1, gf = x; break;
+    case 1: rf = x, gf = 1; break;
+    case 2: gf = 1, bf = x; break;
+    case 3: gf = x, bf = 1; break;
+    case 4: rf = x, bf = 1; break;
+    default: rf = 1, bf = x; break;
+  }
+  r = static_cast<std::uint8_t>(55 + 200 * rf);
+  g = static_cast<std::uint8_t>(55 + 200 * gf);
+  b = static_cast<std::uint8_t>(55 + 200 * bf);
+}
+
+json superquadricsJson(const nd::Result& r) {
+  json list = json::array();
+  for (const auto& sq : r.superquadrics) {
+    const Eigen::Quaterniond q = sq.quaternion();
+    list.push_back({{"segment", sq.segment},
+                    {"a", vec(sq.a)},
+                    {"epsilon", json::array({sq.e1, sq.e2})},
+                    {"position", vec(sq.position)},
+                    {"orientation",
+                     {{"quaternion", json::array({q.x(), q.y(), q.z(), q.w()})},
+                      {"euler", vec(sq.euler)}}},
+                    {"points", sq.points},
+                    {"residual", sq.residual}});
+  }
+  return list;
+}
+
+json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
+                double detect_ms) {
+  json timings = json::object();
+  for (const auto& t : r.timings) timings[t.stage] = t.ms;
+  timings["detect_total"] = detect_ms;
+  timings["reference_model"] = reference_ms;
+  json counts = json::object();
+  for (const auto& [stage, n] : r.point_counts) counts[stage] = n;
+  std::size_t novel = 0;
+  for (bool b : r.novel_gaussian) novel += b;
+  json segments = json::array();
+  for (const auto& s : r.segments) {
+    segments.push_back({{"id", s.id},
+                        {"points", s.indices.size()},
+                        {"centroid", vec(s.centroid)},
+                        {"bbox_min", vec(s.bbox_min)},
+                        {"bbox_max", vec(s.bbox_max)},
+                        {"emd_contribution", s.emd_contribution},
+                        {"gaussians", s.gaussians}});
+  }
+  return {{"timings_ms", timings},
+          {"point_counts", counts},
+          {"gaussians",
+           {{"reference", pipeline.referenceGmm().size()},
+            {"current", r.current_gmm.size()},
+            {"novel", novel}}},
+          {"emd_before", r.emd_before},
+          {"emd_after", r.emd_after},
+          {"num_segments", r.segments.size()},
+          {"num_superquadrics", r.superquadrics.size()},
+          {"segments", segments}};
+}
+
+int run(const Args& args) {
+  nd::Params params;
+  if (!args.config.empty()) nd::loadParamsYaml(args.config, params);
+  // The reference viewpoint (PCD VIEWPOINT) feeds the pipeline's free-space check.
+  auto load = [](const std::string& path) {
+    nd::CloudFile file = nd::loadCloudFile(path);
+    file.cloud.sensor_origin_.head<3>() = file.T_frame_sensor.translation().cast<float>();
+    file.cloud.sensor_orientation_ =
+        Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
+    return file.cloud;
+  };
+  const nd::Cloud reference = load(args.reference);
+  const nd::Cloud current = load(args.current);
+  std::filesystem::create_directories(args.out);
+
+  using Clock = std::chrono::steady_clock;
+  nd::Pipeline pipeline(params);
+  auto t0 = Clock::now();
+  pipeline.setReference(reference);
+  auto t1 = Clock::now();
+  const nd::Result result = pipeline.detect(current);
+  auto t2 = Clock::now();
+  const double ref_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+  const double det_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
+
+  const std::filesystem::path dir(args.out);
+  std::string labels;
+  labels.reserve(result.labels.size() * 2);
+  for (int l : result.labels) labels += std::to_string(l) + '\n';
+  writeText((dir / "labels.txt").string(), labels);
+  writeText((dir / "superquadrics.json").string(), superquadricsJson(result).dump(2) + "\n");
+  writeText((dir / "report.json").string(),
+            reportJson(result, pipeline, ref_ms, det_ms).dump(2) + "\n");
+
+  pcl::PointCloud<pcl::PointXYZRGB> coloured;
+  coloured.resize(current.size());
+  coloured.width = current.width;
+  coloured.height = current.height;
+  coloured.is_dense = current.is_dense;
+  for (std::size_t i = 0; i < current.size(); ++i) {
+    auto& p = coloured[i];
+    p.x = current[i].x, p.y = current[i].y, p.z = current[i].z;
+    colour(result.labels[i], p.r, p.g, p.b);
+  }
+  if (coloured.empty() ||
+      pcl::io::savePCDFileBinary((dir / "segments.pcd").string(), coloured) != 0) {
+    // PCL refuses empty clouds: write a valid empty PCD by hand.
+    if (!coloured.empty()) throw std::runtime_error("cannot write segments.pcd");
+    writeText((dir / "segments.pcd").string(),
+              "VERSION .7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+              "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
+  }
+  std::cout << "novelty_detect: " << result.segments.size() << " segment(s), "
+            << result.superquadrics.size() << " superquadric(s), detection " << det_ms
+            << " ms\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  try {
+    args = parseArgs(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "novelty_detect: " << e.what() << " (" << kUsage << ")\n";
+    return 2;
+  }
+  try {
+    return run(args);
+  } catch (const std::exception& e) {
+    std::cerr << "novelty_detect: " << e.what() << "\n";
+    return 1;
+  }
 }

@@ -1,23 +1,102 @@
-// ROS shell around novelty_detection::Pipeline.
+// ROS shell around novelty_detection::Pipeline: sweeps in, novelties and markers out.
 #pragma once
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
 
+#include <atomic>
+#include <condition_variable>
+#include <map>
 #include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "novelty_detection/Detect.h"
+#include "novelty_detection/SaveReference.h"
+#include "novelty_detection/SetReference.h"
+#include "novelty_detection/params.h"
+#include "novelty_detection/ros/node_params.h"
+#include "novelty_detection/ros/tiled_reference.h"
 
 namespace novelty_detection {
 
+/// Subscribes ~input (PointCloud2 sweeps), waits for their transform into ~fixed_frame,
+/// hands the newest sweep to a worker thread (depth 1: a sweep arriving while one waits
+/// replaces it and is counted as dropped) that compares it with the reference map and
+/// publishes ~novelty_cloud, ~labelled_cloud, ~superquadrics, ~gaussians and ~novelties.
+/// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect.
 class NoveltyDetectorNodelet : public nodelet::Nodelet {
  public:
   NoveltyDetectorNodelet();
   ~NoveltyDetectorNodelet() override;
 
  private:
-  void onInit() override;
+  static constexpr double kWarnPeriodS = 5.0;  // throttle period of repeated warnings
 
-  ros::Publisher status_pub_;
-  ros::WallTimer heartbeat_;
+  void onInit() override;
+  void publishStatus(const std::string& status);
+
+  void onInput(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void onTransformable(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void onTransformFailure(const sensor_msgs::PointCloud2::ConstPtr& msg,
+                          tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  void workerLoop();
+  void processSweep(const sensor_msgs::PointCloud2::ConstPtr& msg);
+
+  /// Converts a message to the fixed frame; throws with a clear message on bad data.
+  Cloud toFixedFrame(const sensor_msgs::PointCloud2& msg, bool wait_for_transform) const;
+  /// Runs detection (cloud in the fixed frame, sensed in `cloud_frame`) with the reference
+  /// tiles around it; throws when impossible.
+  Result detect(const Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
+  void loadReferenceFile(const std::string& path);
+
+  bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool onSetReference(SetReference::Request& req, SetReference::Response& res);
+  bool onSaveReference(SaveReference::Request& req, SaveReference::Response& res);
+  bool onDetect(Detect::Request& req, Detect::Response& res);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// Warns at most once per period per category, but at once when the text changes, so
+  /// that different problems in a row are all reported.
+  void warnThrottled(const std::string& category, const std::string& text);
+
+  NodeParams node_params_;
+  Params params_;
+  std::string params_error_;  // non-empty: refused to start
+
+  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> tf_filter_;
+  ros::Subscriber input_sub_;
+  ros::Publisher status_pub_, novelty_cloud_pub_, labelled_cloud_pub_, superquadrics_pub_,
+      gaussians_pub_, novelties_pub_;
+  ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+
+  std::unique_ptr<TiledReference> reference_;
+
+  // Depth-1 hand-over to the worker.
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  sensor_msgs::PointCloud2::ConstPtr pending_;
+  bool stop_ = false;
+  std::thread worker_;
+  std::atomic<bool> capture_next_{false};
+
+  // Statistics for diagnostics (guarded by stats_mutex_).
+  mutable std::mutex stats_mutex_;
+  std::size_t received_ = 0, processed_ = 0, dropped_ = 0, rejected_ = 0, failed_ = 0,
+              tf_failures_ = 0;
+  double last_processing_ms_ = 0.0, max_processing_ms_ = 0.0;
+  std::string last_result_ = "none yet", last_error_;
+  std::map<std::string, std::pair<std::string, ros::WallTime>> last_warning_;
 };
 
 }  // namespace novelty_detection

@@ -1,0 +1,138 @@
+// Speed of the novelty detection stages, each with the accuracy it reached as a counter:
+// EM (mean error of recovered means), EMD (value), greedy selection (added Gaussians found)
+// and end-to-end detection on simulated sweeps of ~3k, ~30k and ~100k points (point F1
+// against exact ground truth, scene success as defined in evaluation.h).
+//
+//   .ws/devel/lib/novelty_detection/bench_detection --benchmark_repetitions=5 \
+//       --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <random>
+
+#include "novelty_detection/emd.h"
+#include "novelty_detection/evaluation.h"
+#include "novelty_detection/gmm.h"
+#include "novelty_detection/novelty_selection.h"
+#include "novelty_detection/pipeline.h"
+#include "novelty_detection/sim/scene.h"
+
+using namespace novelty_detection;
+
+namespace {
+
+Gmm randomMixture(int k, unsigned seed, double spread = 5.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-spread, spread), s(0.005, 0.05);
+  Gmm g;
+  for (int i = 0; i < k; ++i) {
+    Gaussian c;
+    c.weight = 1.0 / k;
+    c.mean = Eigen::Vector3d(u(rng), u(rng), u(rng));
+    c.cov = Eigen::Vector3d(s(rng), s(rng), s(rng)).asDiagonal();
+    g.components.push_back(c);
+  }
+  return g;
+}
+
+void BM_Em(benchmark::State& state) {
+  // Three well separated Gaussians sampled with N points; EM with 3 components.
+  const int n = static_cast<int>(state.range(0));
+  const Gmm truth = randomMixture(3, 1, 2.0);
+  std::mt19937 rng(2);
+  std::normal_distribution<double> g(0.0, 1.0);
+  WeightedPoints d;
+  d.points.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    const Gaussian& c = truth.components[i % 3];
+    d.points.col(i) = c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) *
+                                   Eigen::Vector3d(g(rng), g(rng), g(rng));
+  }
+  GmmParams p;
+  p.min_variance_m2 = 1e-6;
+  const GmmFitter fitter(p);
+  Gmm fit;
+  for (auto _ : state) fit = fitter.fit(d, 3);
+  double err = 0.0;
+  for (const auto& t : truth.components) {
+    double best = 1e9;
+    for (const auto& f : fit.components) best = std::min(best, (f.mean - t.mean).norm());
+    err = std::max(err, best);
+  }
+  state.counters["max_mean_err_m"] = err;
+  state.SetItemsProcessed(state.iterations() * n);
+}
+BENCHMARK(BM_Em)->Arg(3000)->Arg(30000)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+void BM_Emd(benchmark::State& state) {
+  const int k = static_cast<int>(state.range(0));
+  const Gmm a = randomMixture(k, 3), b = randomMixture(k, 4);
+  double value = 0.0;
+  for (auto _ : state) value = emd(a, b, GroundDistance::kWasserstein);
+  state.counters["emd_m"] = value;
+  state.counters["symmetric_err"] = std::abs(value - emd(b, a, GroundDistance::kWasserstein));
+}
+BENCHMARK(BM_Emd)->Arg(16)->Arg(64)->Arg(128)->Unit(benchmark::kMillisecond);
+
+void BM_Selection(benchmark::State& state) {
+  // Reference of K Gaussians; current = the same plus two added ones (the second one last).
+  const int k = static_cast<int>(state.range(0));
+  const Gmm ref = randomMixture(k, 5);
+  Gmm cur = ref;
+  for (auto& c : cur.components) c.weight *= 0.9;
+  Gaussian add;
+  add.weight = 0.05;
+  add.mean = Eigen::Vector3d(20, 0, 0);
+  cur.components.insert(cur.components.begin() + k / 2, add);
+  add.mean = Eigen::Vector3d(0, 20, 0);
+  cur.components.push_back(add);
+  SelectionParams p;
+  SelectionResult r;
+  for (auto _ : state) r = GreedyNoveltySelector(p).select(cur, ref, 0.01);
+  std::vector<int> got = r.novel;
+  std::sort(got.begin(), got.end());
+  state.counters["exact"] = got == std::vector<int>{k / 2, k + 1};
+  state.counters["emd_solves"] = r.exact_evaluations;
+}
+BENCHMARK(BM_Selection)->Arg(16)->Arg(64)->Arg(128)->Unit(benchmark::kMillisecond);
+
+/// Simulated scene pairs of about 3k, 30k and 100k points (the suite's first scenes).
+const sim::ScenePair& scene(int points) {
+  static std::map<int, std::unique_ptr<sim::ScenePair>> cache;
+  auto& slot = cache[points];
+  if (!slot) {
+    sim::SceneConfig c = sim::suiteSceneConfig(0, 1);
+    if (points <= 3000) c.laser.step_deg = 2.5;  // 28 x 109 beams
+    if (points >= 100000) c.laser.lines = 93;    // 93 x 1081 beams
+    slot = std::make_unique<sim::ScenePair>(sim::generateScenePair(c));
+  }
+  return *slot;
+}
+
+void detection(benchmark::State& state, bool superquadrics) {
+  const sim::ScenePair& s = scene(static_cast<int>(state.range(0)));
+  Params p;
+  p.superquadric.enabled = superquadrics;
+  Pipeline pipeline(p);
+  pipeline.setReference(s.reference);
+  Result r;
+  for (auto _ : state) r = pipeline.detect(s.current);
+  const SceneScore sc = scoreLabels(r.labels, s.current_labels);
+  state.counters["points"] = static_cast<double>(s.current.size());
+  state.counters["f1"] = sc.f1;
+  state.counters["success"] = sc.success;
+  state.counters["segments"] = static_cast<double>(r.segments.size());
+}
+
+void BM_Detect(benchmark::State& state) { detection(state, false); }
+BENCHMARK(BM_Detect)->Arg(3000)->Arg(30000)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+void BM_DetectWithSuperquadrics(benchmark::State& state) { detection(state, true); }
+BENCHMARK(BM_DetectWithSuperquadrics)->Arg(30000)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,67 @@
+// Earth Mover's Distance between Gaussian mixtures (paper eq. 1, Rubner et al. 2000).
+// ROS-free; LEMON stays inside emd.cpp.
+//
+// EMD(P, Q) = min_f sum_ij f_ij d_ij / sum_ij f_ij subject to f_ij >= 0,
+// sum_j f_ij <= p_i, sum_i f_ij <= q_j, sum_ij f_ij = min(sum p, sum q).
+// With unequal total masses this is Rubner's partial matching: the lighter side is moved
+// entirely, the heavier one only in part, and the cost is normalised by the moved flow.
+// Solved exactly as a min-cost flow (LEMON NetworkSimplex, GEQ supply constraints: the
+// lighter side supplies exactly its mass, the heavier side's nodes accept at most theirs).
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+/// Ground distance between two Gaussians.
+enum class GroundDistance {
+  kEuclidean,    ///< |mu_a - mu_b|
+  kWasserstein,  ///< 2-Wasserstein: sqrt(|mu_a-mu_b|^2 + tr(Sa + Sb - 2 (Sb^1/2 Sa Sb^1/2)^1/2))
+};
+
+/// "euclidean" or "wasserstein"; throws std::invalid_argument otherwise.
+GroundDistance parseGroundDistance(const std::string& name);
+
+double gaussianDistance(const Gaussian& a, const Gaussian& b, GroundDistance type);
+
+/// D(i, j) = gaussianDistance(a_i, b_j); matrix square roots computed once per Gaussian.
+Eigen::MatrixXd groundDistanceMatrix(const Gmm& a, const Gmm& b, GroundDistance type);
+
+struct EmdResult {
+  double distance = 0.0;  ///< cost / flow (0 when nothing moves)
+  double cost = 0.0;      ///< sum f_ij d_ij
+  double flow = 0.0;      ///< sum f_ij = min(sum p, sum q)
+  Eigen::MatrixXd flows;  ///< f_ij, filled when requested
+};
+
+/// Repeated EMD solves over one ground-distance matrix (n x m). The flow network is built
+/// once; each solve() only resets the supplies, so masking a Gaussian = giving it weight 0.
+class EmdSolver {
+ public:
+  explicit EmdSolver(const Eigen::MatrixXd& ground_distance);
+  ~EmdSolver();
+  EmdSolver(EmdSolver&&) noexcept;
+  EmdSolver& operator=(EmdSolver&&) noexcept;
+
+  /// p: n weights, q: m weights (non-negative). Throws std::invalid_argument on bad sizes,
+  /// negative or non-finite weights.
+  EmdResult solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
+                  bool with_flows = false) const;
+
+  const Eigen::MatrixXd& groundDistance() const { return d_; }
+
+ private:
+  struct Network;
+  Eigen::MatrixXd d_;
+  mutable std::unique_ptr<Network> forward_;   // p supplies, q accepts
+  mutable std::unique_ptr<Network> backward_;  // q supplies, p accepts
+};
+
+/// EMD between two mixtures with the given ground distance (their weights as masses).
+double emd(const Gmm& a, const Gmm& b, GroundDistance type = GroundDistance::kWasserstein);
+
+}  // namespace novelty_detection

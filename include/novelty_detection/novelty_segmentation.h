@@ -1,0 +1,76 @@
+// Turning novel Gaussians into labelled point segments (ChoosePtfromGaussian, Sec. IV-D),
+// with a geometric check that scales with the data. ROS-free; PCL stays in the .cpp.
+//
+// 1. Candidates: points whose posterior mass on the novel Gaussians exceeds
+//    posterior_threshold (the GMM-EMD selection decides WHERE the change is).
+// 2. Geometric check: a candidate is kept only if its distance to the nearest reference
+//    point exceeds tau = max(min_novelty_distance_m, median + f * 1.4826 * MAD) of the
+//    nearest-neighbour distances from a sample of current points to the reference. Most of
+//    a sweep is unchanged, so the median/MAD measure the noise and sampling mismatch between
+//    the two scans; this strips wall/floor points that share a Gaussian with an object.
+// 3. Segments: connected components of the kept points, linked when closer than
+//    link_factor * (median distance to the 4th nearest kept point); adjacent novel Gaussians
+//    touching the same object therefore end up in one segment. Segments smaller than
+//    min_segment_points are dropped.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+/// Nearest-neighbour distances to a fixed point set (a kd-tree built once).
+class NearestNeighbourIndex {
+ public:
+  NearestNeighbourIndex();
+  ~NearestNeighbourIndex();
+  NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept;
+  NearestNeighbourIndex& operator=(NearestNeighbourIndex&&) noexcept;
+
+  /// Indexes cloud[indices] (all points when indices is empty; non-finite points skipped).
+  void build(const Cloud& cloud, const Indices& indices = {});
+  bool empty() const;
+  /// Distance from p to the nearest indexed point (+inf when the index is empty).
+  double distance(const Eigen::Vector3f& p) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// What the reference sensor saw along the ray through a point (free-space reasoning).
+/// The map's points are indexed by their direction from the reference viewpoint; a current
+/// point p at range r is in space the reference saw through (so p is new) when the median
+/// range of the map points within `max_angle_rad` of p's direction exceeds r + margin. It is
+/// hidden (the map could not see it: an occluded or out-of-view surface, not a new object)
+/// when that median is below r - margin or no map point lies in that cone.
+class VisibilityIndex {
+ public:
+  VisibilityIndex();
+  ~VisibilityIndex();
+  VisibilityIndex(VisibilityIndex&&) noexcept;
+  VisibilityIndex& operator=(VisibilityIndex&&) noexcept;
+
+  void build(const Cloud& cloud, const Indices& indices, const Eigen::Vector3f& origin);
+  bool empty() const;
+  /// True when the reference saw through p (farther than its range + margin_m).
+  bool seenThrough(const Eigen::Vector3f& p, double margin_m, double max_angle_rad) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// tau = max(floor_m, median + factor * 1.4826 * MAD) of `distances` (0 for an empty list).
+double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m);
+
+/// Connected components of cloud[indices] with the link rule above. Returns components of at
+/// least `min_points` points, as input-cloud indices, largest first; `link_radius_m` gets the
+/// radius used.
+std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices,
+                                    double link_factor, int min_points,
+                                    double* link_radius_m = nullptr);
+
+}  // namespace novelty_detection

@@ -1,0 +1,43 @@
+// Parameters of the ROS shell only (frames, files, tiling); the pipeline's own parameters
+// are novelty_detection::Params, read by loadRosParams() under the same names as the YAML.
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+
+namespace novelty_detection {
+
+struct NodeParams {
+  std::string fixed_frame = "map";  ///< frame of the reference map and of all outputs
+  std::string reference_file;       ///< PCD/PLY map loaded at start (fixed frame); "" = none
+  double tile_size_m = 10.0;        ///< reference tile edge; <= 0: one model of the whole map
+  double crop_margin_m = 1.0;       ///< map kept around the sweep's extent [m]
+  std::string sensor_frame;         ///< crop to sensor_range_m around it ("": sweep frame)
+  double sensor_range_m = 30.0;     ///< sensor range for that crop [m]
+  int tile_cache_size = 8;          ///< reference models kept (LRU)
+  int input_queue_size = 5;         ///< sweeps waiting for their transform
+
+  template <class F>
+  void visit(F&& f) {
+    f("fixed_frame", fixed_frame, "frame of the reference map and of all outputs");
+    f("reference_file", reference_file,
+      "PCD/PLY reference map (fixed frame) loaded at start; empty: set one by service");
+    f("tile_size_m", tile_size_m,
+      "edge of the reference map tiles [m]; <= 0 models the whole map at once");
+    f("crop_margin_m", crop_margin_m, "reference kept around the sweep's extent [m]");
+    f("sensor_frame", sensor_frame,
+      "the reference is also cropped to sensor_range_m around this frame's origin; empty: the "
+      "sweep's own frame when it is not the fixed frame");
+    f("sensor_range_m", sensor_range_m, "sensor range for that crop [m]");
+    f("tile_cache_size", tile_cache_size, "reference models (sets of tiles) kept in memory");
+    f("input_queue_size", input_queue_size, "sweeps queued while waiting for their transform");
+  }
+  /// Throws std::invalid_argument naming the parameter.
+  void validate() const;
+};
+
+/// Reads ~name for every field (defaults from the struct), checks types, validates.
+NodeParams loadNodeParams(const ros::NodeHandle& nh);
+
+}  // namespace novelty_detection

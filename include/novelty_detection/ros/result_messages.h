@@ -1,0 +1,33 @@
+// Turning a core Result into ROS messages: NoveltyArray and rviz markers.
+#pragma once
+
+#include <std_msgs/Header.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+/// One Superquadric message (pose from position + the ZYZ Euler rotation).
+SuperquadricPart toSuperquadricMsg(const Superquadric& sq);
+
+/// The NoveltyArray of a result: one Novelty per segment with its superquadrics.
+NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header,
+                            double processing_time_s);
+
+/// A distinct, stable colour for a segment id (golden-ratio hue steps).
+std_msgs::ColorRGBA segmentColour(int segment, float alpha = 0.8f);
+
+/// DELETEALL, then one closed TRIANGLE_LIST mesh per superquadric (namespace
+/// "superquadrics", id = its index), coloured by segment.
+visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
+                                                    const std_msgs::Header& header);
+
+/// DELETEALL, then one SPHERE per Gaussian of the current mixture, at its mean, oriented
+/// along its covariance's eigenvectors and scaled to its 2-sigma ellipsoid (diameter 4
+/// sigma per axis); novel Gaussians red and opaque, the others grey and translucent.
+visualization_msgs::MarkerArray gaussianMarkers(const Result& result,
+                                                const std_msgs::Header& header);
+
+}  // namespace novelty_detection

@@ -1,0 +1,169 @@
+#include "novelty_detection/novelty_segmentation.h"
+
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace novelty_detection {
+namespace {
+
+double median(std::vector<double>& v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+struct NearestNeighbourIndex::Impl {
+  Cloud::Ptr points{new Cloud};
+  pcl::KdTreeFLANN<PointT> tree;
+};
+
+NearestNeighbourIndex::NearestNeighbourIndex() : impl_(std::make_unique<Impl>()) {}
+NearestNeighbourIndex::~NearestNeighbourIndex() = default;
+NearestNeighbourIndex::NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept = default;
+NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&) noexcept =
+    default;
+
+void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
+  impl_ = std::make_unique<Impl>();
+  auto add = [&](const PointT& p) {
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      impl_->points->push_back(p);
+  };
+  if (indices.empty()) {
+    for (const auto& p : cloud) add(p);
+  } else {
+    for (int i : indices) add(cloud[i]);
+  }
+  if (!impl_->points->empty()) impl_->tree.setInputCloud(impl_->points);
+}
+
+bool NearestNeighbourIndex::empty() const { return impl_->points->empty(); }
+
+double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
+  if (empty()) return std::numeric_limits<double>::infinity();
+  PointT q(p.x(), p.y(), p.z());
+  std::vector<int> idx(1);
+  std::vector<float> d2(1);
+  if (impl_->tree.nearestKSearch(q, 1, idx, d2) < 1) return std::numeric_limits<double>::infinity();
+  return std::sqrt(static_cast<double>(d2[0]));
+}
+
+struct VisibilityIndex::Impl {
+  Cloud::Ptr directions{new Cloud};  // unit vectors from the viewpoint
+  std::vector<float> ranges;
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  pcl::KdTreeFLANN<PointT> tree;
+};
+
+VisibilityIndex::VisibilityIndex() : impl_(std::make_unique<Impl>()) {}
+VisibilityIndex::~VisibilityIndex() = default;
+VisibilityIndex::VisibilityIndex(VisibilityIndex&&) noexcept = default;
+VisibilityIndex& VisibilityIndex::operator=(VisibilityIndex&&) noexcept = default;
+
+void VisibilityIndex::build(const Cloud& cloud, const Indices& indices,
+                            const Eigen::Vector3f& origin) {
+  impl_ = std::make_unique<Impl>();
+  impl_->origin = origin;
+  for (int i : indices) {
+    const Eigen::Vector3f d = cloud[i].getVector3fMap() - origin;
+    const float r = d.norm();
+    if (!(r > 1e-6f) || !std::isfinite(r)) continue;
+    const Eigen::Vector3f u = d / r;
+    impl_->directions->push_back(PointT(u.x(), u.y(), u.z()));
+    impl_->ranges.push_back(r);
+  }
+  if (!impl_->directions->empty()) impl_->tree.setInputCloud(impl_->directions);
+}
+
+bool VisibilityIndex::empty() const { return impl_->directions->empty(); }
+
+bool VisibilityIndex::seenThrough(const Eigen::Vector3f& p, double margin_m,
+                                  double max_angle_rad) const {
+  if (empty()) return false;
+  const Eigen::Vector3f d = p - impl_->origin;
+  const float r = d.norm();
+  if (!(r > 1e-6f)) return false;
+  const Eigen::Vector3f u = d / r;
+  std::vector<int> nn;
+  std::vector<float> d2;
+  const double chord = 2.0 * std::sin(0.5 * max_angle_rad);
+  impl_->tree.nearestKSearch(PointT(u.x(), u.y(), u.z()), 8, nn, d2);
+  std::vector<double> ranges;
+  for (std::size_t k = 0; k < nn.size(); ++k)
+    if (d2[k] <= chord * chord) ranges.push_back(impl_->ranges[nn[k]]);
+  if (ranges.empty()) return false;  // the reference has no view along this ray
+  return median(ranges) > r + margin_m;
+}
+
+double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
+  distances.erase(std::remove_if(distances.begin(), distances.end(),
+                                 [](double d) { return !std::isfinite(d); }),
+                  distances.end());
+  if (distances.empty()) return floor_m;
+  const double med = median(distances);
+  for (double& d : distances) d = std::abs(d - med);
+  const double mad = median(distances);
+  return std::max(floor_m, med + factor * 1.4826 * mad);
+}
+
+std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices,
+                                    double link_factor, int min_points, double* link_radius_m) {
+  std::vector<Indices> out;
+  if (link_radius_m) *link_radius_m = 0.0;
+  if (indices.empty()) return out;
+  Cloud::Ptr pts(new Cloud);
+  pts->reserve(indices.size());
+  for (int i : indices) pts->push_back(cloud[i]);
+  pcl::KdTreeFLANN<PointT> tree;
+  tree.setInputCloud(pts);
+  const int n = static_cast<int>(pts->size());
+  // Spacing: median distance to the 4th nearest neighbour among the kept points (a sample).
+  const int k = std::min(5, n);
+  std::vector<int> nn;
+  std::vector<float> d2;
+  std::vector<double> spacing;
+  const int stride = std::max(1, n / 2000);
+  for (int i = 0; i < n && k > 1; i += stride) {
+    if (tree.nearestKSearch((*pts)[i], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
+  }
+  const double radius = link_factor * (spacing.empty() ? 0.0 : median(spacing));
+  if (link_radius_m) *link_radius_m = radius;
+  std::vector<int> comp(n, -1);
+  int count = 0;
+  std::vector<int> stack;
+  for (int seed = 0; seed < n; ++seed) {
+    if (comp[seed] >= 0) continue;
+    Indices members;
+    comp[seed] = count;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+      const int a = stack.back();
+      stack.pop_back();
+      members.push_back(indices[a]);
+      if (radius > 0 && tree.radiusSearch((*pts)[a], radius, nn, d2) > 0) {
+        for (int b : nn) {
+          if (comp[b] < 0) {
+            comp[b] = count;
+            stack.push_back(b);
+          }
+        }
+      }
+    }
+    ++count;
+    if (static_cast<int>(members.size()) >= min_points) {
+      std::sort(members.begin(), members.end());
+      out.push_back(std::move(members));
+    }
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  return out;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,123 @@
+// Services and diagnostics of NoveltyDetectorNodelet (the sweep path is in
+// novelty_detector_nodelet.cpp).
+#include <chrono>
+#include <exception>
+#include <string>
+
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/novelty_detector_nodelet.h"
+#include "novelty_detection/ros/result_messages.h"
+
+namespace novelty_detection {
+
+bool NoveltyDetectorNodelet::onCaptureReference(std_srvs::Trigger::Request&,
+                                                std_srvs::Trigger::Response& res) {
+  if (!params_error_.empty()) {
+    res.success = false;
+    res.message = "not running: " + params_error_;
+    return true;
+  }
+  capture_next_ = true;
+  res.success = true;
+  res.message = "the next sweep becomes the reference";
+  NODELET_INFO("%s", res.message.c_str());
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
+                                            SetReference::Response& res) {
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    const CloudFile file = loadCloudFile(req.path);
+    reference_->setMap(withViewpoint(file));
+    res.success = true;
+    res.message =
+        "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) + " points)";
+    NODELET_INFO("%s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("set_reference failed: %s", e.what());
+  }
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
+                                             SaveReference::Response& res) {
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    if (!reference_->hasMap()) throw std::runtime_error("there is no reference to save");
+    const Cloud map = reference_->map();
+    saveCloudAtomic(req.path, map, viewpointOf(map));
+    res.success = true;
+    res.message = "saved " + std::to_string(map.size()) + " points to " + req.path;
+    NODELET_INFO("%s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("save_reference failed: %s", e.what());
+  }
+  return true;
+}
+
+bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    if (!reference_->hasMap()) throw std::runtime_error("no reference map set");
+    const Cloud cloud = toFixedFrame(req.cloud, true);
+    const Result result = detect(cloud, req.cloud.header.frame_id, req.cloud.header.stamp);
+    std_msgs::Header header = req.cloud.header;
+    header.frame_id = node_params_.fixed_frame;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    res.novelties = toNoveltyArray(result, header, s);
+    res.labelled_cloud = toLabelledPointCloud2(cloud, result.labels, header, false);
+    res.success = true;
+    res.message = std::to_string(result.segments.size()) + " novelties";
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("detect failed: %s", e.what());
+  }
+  return true;
+}
+
+void NoveltyDetectorNodelet::warnThrottled(const std::string& category, const std::string& text) {
+  const ros::WallTime now = ros::WallTime::now();
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    auto& last = last_warning_[category];
+    if (last.first == text && (now - last.second).toSec() < kWarnPeriodS) return;
+    last = {text, now};
+  }
+  NODELET_WARN("%s", text.c_str());
+}
+
+void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!params_error_.empty()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "invalid parameters");
+  } else if (!reference_->hasMap()) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference map");
+  } else if (!last_error_.empty() && processed_ == 0) {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_);
+  } else {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "running");
+  }
+  stat.add("sweeps received", received_);
+  stat.add("sweeps processed", processed_);
+  stat.add("sweeps dropped (stale)", dropped_);
+  stat.add("sweeps rejected", rejected_);
+  stat.add("detections failed", failed_);
+  stat.add("transform failures", tf_failures_);
+  stat.add("last processing time [ms]", last_processing_ms_);
+  stat.add("max processing time [ms]", max_processing_ms_);
+  stat.add("last result", last_result_);
+  stat.add("last error", last_error_);
+  stat.add("reference points", reference_->mapSize());
+  stat.add("reference models cached", reference_->cachedModels());
+  stat.add("reference models built", reference_->modelsBuilt());
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,117 @@
+#include "novelty_detection/ros/tiled_reference.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace novelty_detection {
+
+TiledReference::TiledReference(const Params& params, double tile_size_m, std::size_t cache_size)
+    : params_(params),
+      tile_size_m_(tile_size_m),
+      cache_size_(std::max<std::size_t>(cache_size, 1)) {
+  params_.validate();
+}
+
+TiledReference::TileKey TiledReference::tileOf(double x, double y) const {
+  if (tile_size_m_ <= 0.0) return {0, 0};
+  return {static_cast<std::int64_t>(std::floor(x / tile_size_m_)),
+          static_cast<std::int64_t>(std::floor(y / tile_size_m_))};
+}
+
+void TiledReference::setMap(const Cloud& map) {
+  auto copy = std::make_shared<Cloud>(map);
+  std::map<TileKey, Indices> tiles;
+  for (std::size_t i = 0; i < copy->size(); ++i) {
+    const PointT& p = (*copy)[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    tiles[tileOf(p.x, p.y)].push_back(static_cast<int>(i));
+  }
+  if (tiles.empty()) {
+    throw std::invalid_argument("reference map has no finite points (" +
+                                std::to_string(copy->size()) + " points given)");
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  map_ = std::move(copy);
+  tiles_ = std::move(tiles);
+  cache_.clear();
+}
+
+bool TiledReference::hasMap() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return map_ != nullptr;
+}
+
+Cloud TiledReference::map() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!map_) throw std::logic_error("no reference map set");
+  return *map_;
+}
+
+std::size_t TiledReference::mapSize() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return map_ ? map_->size() : 0;
+}
+
+std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3d& lo,
+                                                            const Eigen::Vector3d& hi) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!map_) throw std::logic_error("no reference map set");
+  TileSet key;
+  if (tile_size_m_ <= 0.0) {
+    key.push_back({0, 0});
+  } else {
+    const TileKey a = tileOf(lo.x(), lo.y()), b = tileOf(hi.x(), hi.y());
+    // A huge box (e.g. a stray far point) must not loop over millions of empty tiles:
+    // walk the occupied tiles instead when the box spans more tiles than exist.
+    const double span = double(b.first - a.first + 1) * double(b.second - a.second + 1);
+    if (span > static_cast<double>(tiles_.size())) {
+      for (const auto& t : tiles_) {
+        if (t.first.first >= a.first && t.first.first <= b.first && t.first.second >= a.second &&
+            t.first.second <= b.second) {
+          key.push_back(t.first);
+        }
+      }
+    } else {
+      for (std::int64_t i = a.first; i <= b.first; ++i) {
+        for (std::int64_t j = a.second; j <= b.second; ++j) {
+          if (tiles_.count({i, j})) key.push_back({i, j});
+        }
+      }
+    }
+  }
+  if (key.empty()) {
+    throw std::runtime_error("the reference map has no points where the sweep is");
+  }
+  for (auto it = cache_.begin(); it != cache_.end(); ++it) {
+    if (it->first == key) {
+      cache_.splice(cache_.begin(), cache_, it);
+      return cache_.front().second;
+    }
+  }
+  Cloud crop;
+  // The map's viewpoint (if known) feeds the pipeline's free-space check.
+  crop.sensor_origin_ = map_->sensor_origin_;
+  crop.sensor_orientation_ = map_->sensor_orientation_;
+  for (const auto& t : key) {
+    for (int i : tiles_.at(t)) crop.push_back((*map_)[i]);
+  }
+  auto pipeline = std::make_shared<Pipeline>(params_);
+  pipeline->setReference(crop);
+  ++models_built_;
+  cache_.emplace_front(std::move(key), pipeline);
+  while (cache_.size() > cache_size_) cache_.pop_back();
+  return pipeline;
+}
+
+std::size_t TiledReference::cachedModels() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return cache_.size();
+}
+
+std::size_t TiledReference::modelsBuilt() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return models_built_;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,201 @@
+// The detector's reference services work, and bad sweeps (empty, all NaN, no x field,
+// unknown frame) are refused with a warning while the next good sweep is still served.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
+#include <std_srvs/Trigger.h>
+
+#include <unistd.h>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <vector>
+
+#include "novelty_detection/Detect.h"
+#include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/SaveReference.h"
+#include "novelty_detection/SetReference.h"
+#include "novelty_detection/cloud_io.h"
+#include "test_helpers.h"
+
+using test_helpers::waitFor;
+
+class DetectorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    pub_ = nh_.advertise<sensor_msgs::PointCloud2>("/sweep", 5);
+    sub_ = nh_.subscribe<novelty_detection::NoveltyArray>(
+        "/detector/novelties", 10, [this](const novelty_detection::NoveltyArray::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          results_.push_back(*m);
+        });
+    log_sub_ = nh_.subscribe<rosgraph_msgs::Log>("/rosout", 100,
+                                                 [this](const rosgraph_msgs::Log::ConstPtr& m) {
+                                                   std::lock_guard<std::mutex> lock(mutex_);
+                                                   if (m->level >= rosgraph_msgs::Log::WARN)
+                                                     warnings_.push_back(m->msg);
+                                                 });
+    ASSERT_TRUE(waitFor(
+        [this] {
+          return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
+                 log_sub_.getNumPublishers() > 0;
+        },
+        30.0))
+        << "detector not connected";
+    ASSERT_TRUE(ros::service::waitForService("/detector/capture_reference", 30000));
+    ASSERT_TRUE(ros::service::waitForService("/detector/detect", 30000));
+    room_ = test_helpers::corridor(false, 1);
+  }
+
+  bool hasWarning(const std::string& needle) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& w : warnings_) {
+      if (w.find(needle) != std::string::npos) return true;
+    }
+    return false;
+  }
+  // Publishes `msg` (re-stamped) every 3 s until a warning containing `needle` arrives: the
+  // manager's /rosout connection may come up after the first warning.
+  bool publishUntilWarning(sensor_msgs::PointCloud2 msg, const std::string& needle) {
+    ros::WallTime next;
+    return waitFor(
+        [&] {
+          if (hasWarning(needle)) return true;
+          if (ros::WallTime::now() >= next) {
+            msg.header.stamp = ros::Time::now();
+            pub_.publish(msg);
+            next = ros::WallTime::now() + ros::WallDuration(3.0);
+          }
+          return false;
+        },
+        25.0);
+  }
+  // Publishes a good sweep and waits for its result (stamp identifies it).
+  bool goodSweepIsServed() {
+    const ros::Time stamp = ros::Time::now();
+    pub_.publish(test_helpers::toMsg(room_, "map", stamp));
+    return waitFor(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          for (const auto& r : results_) {
+            if (r.header.stamp == stamp && r.header.frame_id == "map") return true;
+          }
+          return false;
+        },
+        20.0);
+  }
+  // Captures the room as reference through ~capture_reference.
+  void captureRoom() {
+    std_srvs::Trigger trigger;
+    ASSERT_TRUE(ros::service::call("/detector/capture_reference", trigger));
+    EXPECT_TRUE(trigger.response.success) << trigger.response.message;
+    pub_.publish(test_helpers::toMsg(room_, "map", ros::Time::now()));
+    // The capture is asynchronous: save_reference succeeds once it happened.
+    novelty_detection::SaveReference save;
+    save.request.path = tmpPath("captured.pcd");
+    ASSERT_TRUE(waitFor(
+        [&] {
+          return ros::service::call("/detector/save_reference", save) && save.response.success;
+        },
+        20.0))
+        << save.response.message;
+    EXPECT_EQ(novelty_detection::loadCloud(save.request.path).size(), room_.size());
+  }
+  std::string tmpPath(const std::string& name) {
+    return "/tmp/novelty_rostest_" + std::to_string(getpid()) + "_" + name;
+  }
+
+  ros::NodeHandle nh_;
+  ros::Publisher pub_;
+  ros::Subscriber sub_, log_sub_;
+  std::mutex mutex_;
+  std::vector<novelty_detection::NoveltyArray> results_;
+  std::vector<std::string> warnings_;
+  novelty_detection::Cloud room_;
+};
+
+TEST_F(DetectorTest, ReferenceServicesAndDetect) {
+  // Without a reference, a sweep yields a warning and no result.
+  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(room_, "map", ros::Time::now()),
+                                  "no reference map yet"));
+  novelty_detection::SaveReference save;
+  save.request.path = tmpPath("none.pcd");
+  ASSERT_TRUE(ros::service::call("/detector/save_reference", save));
+  EXPECT_FALSE(save.response.success);
+
+  captureRoom();
+
+  // set_reference: a missing file is refused clearly, a saved one is loaded.
+  novelty_detection::SetReference set;
+  set.request.path = tmpPath("does_not_exist.pcd");
+  ASSERT_TRUE(ros::service::call("/detector/set_reference", set));
+  EXPECT_FALSE(set.response.success);
+  EXPECT_NE(set.response.message.find("does_not_exist"), std::string::npos) << set.response.message;
+  set.request.path = tmpPath("captured.pcd");
+  ASSERT_TRUE(ros::service::call("/detector/set_reference", set));
+  EXPECT_TRUE(set.response.success) << set.response.message;
+
+  // detect on a cloud given in the laser frame (1, 0, 0.5 from map): every point labelled.
+  novelty_detection::Cloud in_laser = room_;
+  for (auto& p : in_laser) {
+    p.x -= 1.0f;
+    p.z -= 0.5f;
+  }
+  in_laser.push_back(novelty_detection::PointT(NAN, NAN, NAN));
+  novelty_detection::Detect detect;
+  detect.request.cloud = test_helpers::toMsg(in_laser, "laser", ros::Time(0));
+  ASSERT_TRUE(ros::service::call("/detector/detect", detect));
+  EXPECT_TRUE(detect.response.success) << detect.response.message;
+  EXPECT_EQ(detect.response.labelled_cloud.width * detect.response.labelled_cloud.height,
+            in_laser.size());
+  EXPECT_EQ(detect.response.novelties.header.frame_id, "map");
+  // (Whether this synthetic room counts as unchanged is the pipeline's business, tested on
+  // realistic simulated scenes in novelty_scenes.test.)
+
+  EXPECT_TRUE(goodSweepIsServed());
+  std::remove(tmpPath("captured.pcd").c_str());
+}
+
+TEST_F(DetectorTest, BadSweepsAreRefusedAndTheNextGoodOneIsServed) {
+  captureRoom();
+  ASSERT_TRUE(goodSweepIsServed());
+
+  novelty_detection::Cloud empty;
+  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(empty, "map", ros::Time::now()),
+                                  "the sweep is empty"));
+  EXPECT_TRUE(goodSweepIsServed());
+
+  novelty_detection::Cloud nans;
+  for (int i = 0; i < 100; ++i) nans.push_back(novelty_detection::PointT(NAN, NAN, NAN));
+  EXPECT_TRUE(
+      publishUntilWarning(test_helpers::toMsg(nans, "map", ros::Time::now()), "no finite point"));
+  EXPECT_TRUE(goodSweepIsServed());
+
+  sensor_msgs::PointCloud2 no_x = test_helpers::toMsg(room_, "map", ros::Time::now());
+  no_x.fields[0].name = "intensity";
+  EXPECT_TRUE(publishUntilWarning(no_x, "no 'x' field"));
+  EXPECT_TRUE(goodSweepIsServed());
+
+  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(room_, "no_such_frame", ros::Time::now()),
+                                  "'no_such_frame' is unknown to tf"));
+  EXPECT_TRUE(goodSweepIsServed());
+
+  // A sweep in the laser frame goes through tf.
+  novelty_detection::Cloud in_laser = room_;
+  for (auto& p : in_laser) p.x -= 1.0f;
+  const ros::Time stamp = ros::Time::now();
+  pub_.publish(test_helpers::toMsg(in_laser, "laser", stamp));
+  EXPECT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return !results_.empty() && results_.back().header.stamp == stamp;
+      },
+      20.0));
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_detector_robustness");
+  ros::NodeHandle keep_alive;  // the node shuts down when its last NodeHandle goes away
+  return RUN_ALL_TESTS();
+}

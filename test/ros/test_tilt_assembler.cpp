@@ -1,0 +1,93 @@
+// A laser at (0, 0, 1) in map nods from -0.3 to +0.3 rad pitch in 21 lines and back in 20:
+// the assembler publishes one sweep per direction (closed by the reversal, then by the idle
+// timeout), every valid beam projected at its range from the laser origin.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/LinearMath/Quaternion.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "novelty_detection/ros/conversions.h"
+#include "test_helpers.h"
+
+using test_helpers::waitFor;
+
+TEST(TiltAssembler, OneSweepPerTiltDirection) {
+  ros::NodeHandle nh;
+  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
+  std::vector<novelty_detection::Cloud> sweeps;
+  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        EXPECT_EQ(m->header.frame_id, "map");
+        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
+      });
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
+               sub.getNumPublishers() > 0;
+      },
+      30.0));
+
+  std::vector<double> pitches;
+  for (int k = 0; k <= 20; ++k) pitches.push_back(-0.3 + 0.03 * k);
+  for (int k = 19; k >= 0; --k) pitches.push_back(-0.3 + 0.03 * k);
+  const ros::Time t0 = ros::Time::now();
+  for (std::size_t k = 0; k < pitches.size(); ++k) {
+    const ros::Time stamp = t0 + ros::Duration(0.025 * k);
+    tf2_msgs::TFMessage tf;
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = stamp;
+    t.header.frame_id = "map";
+    t.child_frame_id = "laser";
+    t.transform.translation.z = 1.0;
+    tf2::Quaternion q;
+    q.setRPY(0.0, pitches[k], 0.0);
+    t.transform.rotation.x = q.x();
+    t.transform.rotation.y = q.y();
+    t.transform.rotation.z = q.z();
+    t.transform.rotation.w = q.w();
+    tf.transforms.push_back(t);
+    tf_pub.publish(tf);
+    sensor_msgs::LaserScan scan;
+    scan.header.stamp = stamp;
+    scan.header.frame_id = "laser";
+    scan.angle_min = -0.5f;
+    scan.angle_increment = 0.1f;
+    scan.angle_max = 0.5f;
+    scan.range_min = 0.1f;
+    scan.range_max = 10.0f;
+    scan.ranges.assign(11, 2.0f);
+    scan.ranges[3] = std::numeric_limits<float>::infinity();  // no return
+    scan.ranges[7] = 20.0f;                                   // beyond range_max
+    scan_pub.publish(scan);
+    ros::WallDuration(0.01).sleep();
+  }
+  ASSERT_TRUE(waitFor([&] { return sweeps.size() >= 2; }, 20.0)) << sweeps.size() << " sweeps";
+  EXPECT_EQ(sweeps[0].size(), 21u * 9u);
+  EXPECT_EQ(sweeps[1].size(), 20u * 9u);
+  double max_err = 0.0, min_z = 1e9, max_z = -1e9;
+  for (const auto& s : sweeps) {
+    for (const auto& p : s) {
+      max_err = std::max(max_err,
+                         std::abs(std::sqrt(p.x * p.x + p.y * p.y + (p.z - 1) * (p.z - 1)) - 2.0));
+      min_z = std::min<double>(min_z, p.z);
+      max_z = std::max<double>(max_z, p.z);
+    }
+  }
+  EXPECT_LT(max_err, 1e-4);
+  // Pitch +-0.3 rad about y tilts the beams to z = 1 -+ 2 cos(a) sin(0.3).
+  EXPECT_NEAR(max_z, 1 + 2 * std::sin(0.3), 1e-3);
+  EXPECT_NEAR(min_z, 1 - 2 * std::sin(0.3), 1e-3);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_tilt_assembler");
+  ros::NodeHandle keep_alive;
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,111 @@
+// Superquadric marker meshes are closed and wound outwards (rviz shades by winding); the tiled
+// reference caches models.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "novelty_detection/ros/result_messages.h"
+#include "novelty_detection/ros/superquadric_mesh.h"
+#include "novelty_detection/ros/tiled_reference.h"
+
+using namespace novelty_detection;
+
+namespace {
+// Signed volume by the divergence theorem: positive iff triangles are CCW from outside.
+double signedVolume(const std::vector<Eigen::Vector3d>& tris) {
+  double v = 0.0;
+  for (std::size_t i = 0; i + 2 < tris.size(); i += 3) {
+    v += tris[i].dot(tris[i + 1].cross(tris[i + 2])) / 6.0;
+  }
+  return v;
+}
+}  // namespace
+
+TEST(SuperquadricMesh, EllipsoidVolumeAndOutwardWinding) {
+  Superquadric sq;
+  sq.a = Eigen::Vector3d(0.3, 0.2, 0.5);
+  sq.e1 = sq.e2 = 1.0;
+  sq.euler = Eigen::Vector3d(0.4, 0.7, -0.2);
+  sq.position = Eigen::Vector3d(1.0, -2.0, 0.5);
+  const auto tris = superquadricTriangles(sq, 24);
+  ASSERT_EQ(tris.size() % 3, 0u);
+  const double exact = 4.0 / 3.0 * M_PI * 0.3 * 0.2 * 0.5;
+  EXPECT_NEAR(signedVolume(tris), exact, 0.01 * exact);
+}
+
+TEST(SuperquadricMesh, BoxLikeShapeIsClosedAndOutward) {
+  Superquadric sq;
+  sq.a = Eigen::Vector3d(0.5, 0.4, 0.3);
+  sq.e1 = sq.e2 = 0.1;  // nearly a box of volume 8 a1 a2 a3
+  const auto tris = superquadricTriangles(sq, 16);
+  const double box = 8 * 0.5 * 0.4 * 0.3;
+  const double v = signedVolume(tris);
+  EXPECT_GT(v, 0.9 * box);
+  EXPECT_LT(v, 1.0 * box);
+  // Closed: every directed edge is matched by its reverse (vertices are shared exactly).
+  using Key = std::tuple<double, double, double, double, double, double>;
+  std::map<Key, int> edges;
+  for (std::size_t i = 0; i < tris.size(); i += 3) {
+    for (int k = 0; k < 3; ++k) {
+      const auto& a = tris[i + k];
+      const auto& b = tris[i + (k + 1) % 3];
+      ++edges[Key(a.x(), a.y(), a.z(), b.x(), b.y(), b.z())];
+      --edges[Key(b.x(), b.y(), b.z(), a.x(), a.y(), a.z())];
+    }
+  }
+  for (const auto& e : edges) ASSERT_EQ(e.second, 0);
+}
+
+TEST(ResultMessages, MarkersStartWithDeleteAllAndFollowTheResult) {
+  Result r;
+  Superquadric sq;
+  sq.segment = 2;
+  r.superquadrics = {sq, sq};
+  Gaussian g;
+  g.cov = Eigen::Vector3d(0.04, 0.01, 0.0001).asDiagonal();
+  r.current_gmm.components = {g, g, g};
+  r.novel_gaussian = {false, true, false};
+  std_msgs::Header h;
+  h.frame_id = "map";
+  const auto sqm = superquadricMarkers(r, h);
+  ASSERT_EQ(sqm.markers.size(), 3u);
+  EXPECT_EQ(sqm.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(sqm.markers[1].type, visualization_msgs::Marker::TRIANGLE_LIST);
+  EXPECT_EQ(sqm.markers[1].points.size() % 3, 0u);
+  const auto gm = gaussianMarkers(r, h);
+  ASSERT_EQ(gm.markers.size(), 4u);
+  EXPECT_EQ(gm.markers[2].ns, "novel_gaussians");
+  EXPECT_EQ(gm.markers[1].ns, "gaussians");
+  // 2-sigma ellipsoid: diameter 4 sigma along each principal axis (any order).
+  const auto& s = gm.markers[1].scale;
+  EXPECT_NEAR(s.x + s.y + s.z, 4 * (0.2 + 0.1 + 0.01), 1e-9);
+}
+
+TEST(TiledReference, CachesOneModelPerSetOfTiles) {
+  Params params;
+  TiledReference ref(params, 2.0, 2);
+  Cloud map;
+  for (int i = 0; i < 100; ++i) {
+    // A wall (x 0..9.9, y ~ 0.5, z 0.2..1.1), not ground: the pipeline removes the floor.
+    for (int j = 0; j < 10; ++j) {
+      map.push_back(PointT(0.1f * i, 0.5f + 0.01f * std::sin(0.7f * i * j), 0.2f + 0.1f * j));
+    }
+  }
+  EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()), std::logic_error);
+  ref.setMap(map);
+  const auto a = ref.pipelineFor(Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(1.5, 1, 1));
+  EXPECT_EQ(a->referenceCloud().size(), 200u);  // tile x in [0, 2)
+  const auto b = ref.pipelineFor(Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(1.9, 1, 1));
+  EXPECT_EQ(a.get(), b.get());  // same tiles: cached
+  const auto c = ref.pipelineFor(Eigen::Vector3d(1.5, 0, 0), Eigen::Vector3d(4.5, 1, 1));
+  EXPECT_EQ(c->referenceCloud().size(), 600u);  // tiles [0,2), [2,4), [4,6)
+  EXPECT_EQ(ref.modelsBuilt(), 2u);
+  EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d(50, 50, 0), Eigen::Vector3d(51, 51, 1)),
+               std::runtime_error);
+  Cloud nan_map;
+  nan_map.push_back(PointT(NAN, 0, 0));
+  EXPECT_THROW(ref.setMap(nan_map), std::invalid_argument);
+  EXPECT_EQ(ref.mapSize(), 1000u);  // a refused map leaves the old one
+}

@@ -1,0 +1,165 @@
+// EM recovers a sampled mixture; regularisation, weights, determinism and degenerate input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <random>
+
+#include "novelty_detection/gmm.h"
+
+using namespace novelty_detection;
+
+namespace {
+
+// Samples a 3-component mixture with known parameters (seeded).
+WeightedPoints sampleMixture(const Gmm& truth, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::discrete_distribution<int> pick({truth.components[0].weight,
+                                        truth.components[1].weight,
+                                        truth.components[2].weight});
+  std::normal_distribution<double> g(0.0, 1.0);
+  WeightedPoints d;
+  d.points.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    const Gaussian& c = truth.components[pick(rng)];
+    const Eigen::Matrix3d l = c.cov.llt().matrixL();
+    d.points.col(i) = c.mean + l * Eigen::Vector3d(g(rng), g(rng), g(rng));
+  }
+  return d;
+}
+
+Gmm truthMixture() {
+  Gmm t;
+  Gaussian a, b, c;
+  a.weight = 0.5;
+  a.mean = {0, 0, 0};
+  a.cov = Eigen::Vector3d(0.04, 0.01, 0.0025).asDiagonal();
+  b.weight = 0.3;
+  b.mean = {2.0, 1.0, 0.5};
+  b.cov << 0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01;
+  c.weight = 0.2;
+  c.mean = {-1.5, 2.0, 1.0};
+  c.cov = Eigen::Vector3d(0.01, 0.01, 0.05).asDiagonal();
+  t.components = {a, b, c};
+  return t;
+}
+
+// Matches each true component to its nearest fitted mean.
+const Gaussian& nearest(const Gmm& g, const Eigen::Vector3d& m) {
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < g.size(); ++k)
+    if ((g.components[k].mean - m).norm() < (g.components[best].mean - m).norm()) best = k;
+  return g.components[best];
+}
+
+}  // namespace
+
+TEST(Gmm, EmRecoversSampledThreeComponentMixture) {
+  const Gmm truth = truthMixture();
+  const WeightedPoints data = sampleMixture(truth, 6000, 7);
+  GmmParams p;
+  p.min_variance_m2 = 1e-6;
+  p.tolerance = 1e-7;
+  p.max_iterations = 200;
+  EmStats st;
+  const Gmm fit = GmmFitter(p).fit(data, 3, &st);
+  ASSERT_EQ(fit.size(), 3u);
+  double wsum = 0;
+  for (const auto& g : fit.components) wsum += g.weight;
+  EXPECT_NEAR(wsum, 1.0, 1e-12);
+  for (const auto& t : truth.components) {
+    const Gaussian& f = nearest(fit, t.mean);
+    EXPECT_LT((f.mean - t.mean).norm(), 0.02);
+    EXPECT_NEAR(f.weight, t.weight, 0.02);
+    EXPECT_LT((f.cov - t.cov).norm(), 0.01);
+  }
+  EXPECT_TRUE(st.converged);
+  EXPECT_LT(st.iterations, 200);
+}
+
+TEST(Gmm, WeightedPointsEqualRepeatedPoints) {
+  // A point of weight 3 must act like three copies of it.
+  const WeightedPoints base = sampleMixture(truthMixture(), 300, 3);
+  WeightedPoints weighted = base, repeated;
+  weighted.weights = Eigen::VectorXd::Ones(base.size());
+  weighted.weights.head(100).setConstant(3.0);
+  repeated.points.resize(3, base.size() + 200);
+  repeated.points << base.points, base.points.leftCols(100), base.points.leftCols(100);
+  GmmParams p;
+  GmmFitter f(p);
+  const Gmm init = f.initFromLabels(weighted, f.kmeansLabels(weighted, 3), 3);
+  const Gmm a = f.fitFrom(weighted, init);
+  const Gmm b = f.fitFrom(repeated, init);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_NEAR(a.components[k].weight, b.components[k].weight, 1e-9);
+    EXPECT_LT((a.components[k].mean - b.components[k].mean).norm(), 1e-9);
+    EXPECT_LT((a.components[k].cov - b.components[k].cov).norm(), 1e-9);
+  }
+}
+
+TEST(Gmm, PlanarAndCollinearClustersStayPositiveDefinite) {
+  WeightedPoints d;
+  d.points.resize(3, 400);
+  for (int i = 0; i < 200; ++i) d.points.col(i) << 0.01 * (i % 20), 0.01 * (i / 20), 0.0;
+  for (int i = 200; i < 400; ++i) d.points.col(i) << 5.0, 5.0, 0.005 * i;  // a line
+  GmmParams p;
+  const Gmm g = GmmFitter(p).fit(d, 2);
+  ASSERT_EQ(g.size(), 2u);
+  for (const auto& c : g.components) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(c.cov);
+    EXPECT_GE(es.eigenvalues().minCoeff(), p.min_variance_m2 * 0.999);
+    EXPECT_TRUE(c.mean.allFinite());
+  }
+}
+
+TEST(Gmm, DeterministicForASeed) {
+  const WeightedPoints data = sampleMixture(truthMixture(), 1000, 11);
+  GmmParams p;
+  const Gmm a = GmmFitter(p).fit(data, 5), b = GmmFitter(p).fit(data, 5);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k)
+    EXPECT_EQ(a.components[k].mean, b.components[k].mean);
+}
+
+TEST(Gmm, ComponentRuleAndDegenerateInput) {
+  GmmParams p;
+  p.points_per_component = 100;
+  p.max_components = 8;
+  GmmFitter f(p);
+  WeightedPoints d;
+  d.points = Eigen::Matrix3Xd::Random(3, 250);
+  EXPECT_EQ(f.numComponents(d), 3);
+  d.points = Eigen::Matrix3Xd::Random(3, 5000);
+  EXPECT_EQ(f.numComponents(d), 8);
+  // Fewer points than components: never more Gaussians than points, no NaN.
+  WeightedPoints two;
+  two.points = Eigen::Matrix3Xd::Random(3, 2);
+  const Gmm g = f.fit(two, 10);
+  EXPECT_LE(g.size(), 2u);
+  for (const auto& c : g.components) EXPECT_TRUE(c.cov.allFinite() && c.mean.allFinite());
+  // A single repeated point, and an empty set.
+  WeightedPoints same;
+  same.points = Eigen::Matrix3Xd::Ones(3, 30);
+  const Gmm s = f.fit(same, 4);
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_NEAR(s.components[0].weight, 1.0, 1e-12);
+  EXPECT_TRUE(f.fit(WeightedPoints{}).empty());
+  // Bad input is refused clearly.
+  WeightedPoints bad = two;
+  bad.points(0, 0) = std::nan("");
+  EXPECT_THROW(f.fit(bad, 1), std::invalid_argument);
+}
+
+TEST(Gmm, ResponsibilitiesSumToOneFarFromEveryComponent) {
+  Gmm g = truthMixture();
+  Eigen::Matrix3Xd x(3, 2);
+  x.col(0) << 1e3, 1e3, 1e3;  // underflows every density: log-sum-exp keeps it finite
+  x.col(1) << 0, 0, 0;
+  const Eigen::MatrixXd r = responsibilities(g, x);
+  EXPECT_TRUE(r.allFinite());
+  EXPECT_NEAR(r.col(0).sum(), 1.0, 1e-12);
+  EXPECT_NEAR(r.col(1).sum(), 1.0, 1e-12);
+  EXPECT_GT(r(0, 1), 0.99);
+}

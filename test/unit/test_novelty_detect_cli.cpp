@@ -1,0 +1,120 @@
+// The novelty_detect command line tool: the DESIGN.md contract files, and clean failures.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <unistd.h>
+#include <algorithm>
+
+#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/sim/scene.h"
+
+namespace fs = std::filesystem;
+using namespace novelty_detection;
+
+namespace {
+
+struct CliRun {
+  int code = 0;
+  std::string err;
+};
+
+CliRun runCli(const std::string& args, const fs::path& dir) {
+  const fs::path err_file = dir / "stderr.txt";
+  const std::string cmd = std::string(NOVELTY_BIN_DIR) + "/novelty_detect " + args + " 2> " +
+                          err_file.string() + " > /dev/null";
+  CliRun r;
+  r.code = std::system(cmd.c_str());
+  std::ifstream in(err_file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+fs::path tempDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() /
+                     ("novelty_cli_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+}  // namespace
+
+TEST(NoveltyDetectCli, WritesTheContractFiles) {
+  const fs::path dir = tempDir("ok");
+  sim::SceneConfig c;
+  c.seed = 3;
+  c.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
+  const fs::path out = dir / "out" / "nested";  // created when missing
+  const CliRun r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                        (dir / "cur.pcd").string() + " --out " + out.string(),
+                    dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+
+  std::ifstream labels(out / "labels.txt");
+  std::size_t n = 0, novel = 0;
+  for (int l; labels >> l; ++n) {
+    EXPECT_GE(l, 0);
+    novel += l > 0;
+  }
+  EXPECT_EQ(n, s.current.size());
+  EXPECT_GT(novel, 0u);
+
+  std::ifstream rep(out / "report.json");
+  const auto report = nlohmann::json::parse(rep);
+  for (const char* key : {"timings_ms", "point_counts", "gaussians", "emd_before", "emd_after",
+                          "num_segments", "num_superquadrics"})
+    EXPECT_TRUE(report.contains(key)) << key;
+  EXPECT_GE(report["num_segments"].get<int>(), 1);
+  EXPECT_GT(report["emd_before"].get<double>(), report["emd_after"].get<double>());
+  EXPECT_EQ(report["point_counts"]["input"].get<std::size_t>(), s.current.size());
+
+  std::ifstream sq(out / "superquadrics.json");
+  const auto sqs = nlohmann::json::parse(sq);
+  ASSERT_TRUE(sqs.is_array());
+  EXPECT_EQ(sqs.size(), report["num_superquadrics"].get<std::size_t>());
+  for (const auto& e : sqs) {
+    for (const char* key : {"segment", "a", "epsilon", "position", "orientation", "points",
+                            "residual"})
+      EXPECT_TRUE(e.contains(key)) << key;
+  }
+  EXPECT_EQ(loadCloud((out / "segments.pcd").string()).size(), s.current.size());
+  fs::remove_all(dir);
+}
+
+TEST(NoveltyDetectCli, FailsCleanly) {
+  const fs::path dir = tempDir("bad");
+  // Missing input file: non-zero exit, one line naming the problem.
+  CliRun r = runCli("--reference " + (dir / "missing.pcd").string() + " --current " +
+                  (dir / "missing.pcd").string() + " --out " + (dir / "o").string(),
+              dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("missing.pcd"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  // Bad arguments.
+  r = runCli("--reference", dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = runCli("--bogus x", dir);
+  EXPECT_NE(r.code, 0);
+  // Invalid configuration.
+  Cloud tiny;
+  for (int i = 0; i < 10; ++i) tiny.push_back(PointT(i, 0, 1));
+  saveCloudAtomic((dir / "t.pcd").string(), tiny);
+  std::ofstream(dir / "bad.yaml") << "gmm:\n  max_components: -3\n";
+  r = runCli("--reference " + (dir / "t.pcd").string() + " --current " + (dir / "t.pcd").string() +
+              " --out " + (dir / "o").string() + " --config " + (dir / "bad.yaml").string(),
+          dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("max_components"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  fs::remove_all(dir);
+}
