@@ -62,7 +62,7 @@ class DegenerateCurrent : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     sim::SceneConfig c;
-    c.seed = 21;
+    c.seed = 11;  // the unchanged scene of test_pipeline NoChangeNoNovelty
     c.novelty_count = 0;
     scene_ = new sim::ScenePair(sim::generateScenePair(c));
     pipeline_ = new Pipeline(Params());
@@ -107,13 +107,13 @@ TEST_F(DegenerateCurrent, CollinearPoints) {
 
 TEST_F(DegenerateCurrent, SinglePointAndTwoPoints) {
   Cloud one;
-  one.push_back(PointT(1.0f, 0.0f, 1.0f));
+  one.push_back(mapPoint(10));
   const Result r1 = pipeline_->detect(one);
   expectSaneResult(r1, 1);
   // One or two points cannot support a Gaussian of their own: nothing is reported.
   EXPECT_FALSE(r1.hasNovelty());
   Cloud two = one;
-  two.push_back(PointT(1.1f, 0.0f, 1.0f));
+  two.push_back(mapPoint(4000));
   const Result r2 = pipeline_->detect(two);
   expectSaneResult(r2, 2);
   EXPECT_FALSE(r2.hasNovelty());
