@@ -3,8 +3,8 @@
 // and end-to-end detection on simulated sweeps of ~3k, ~30k and ~100k points (point F1
 // against exact ground truth, scene success as defined in evaluation.h).
 //
-//   .ws/devel/lib/novelty_detection/bench_detection --benchmark_repetitions=5 \
-//       --benchmark_report_aggregates_only=true
+//   bench_detection --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// (in .ws/devel/lib/novelty_detection/); --benchmark_filter=Suite runs the 30-scene suites.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Cholesky>
@@ -48,8 +48,8 @@ void BM_Em(benchmark::State& state) {
   d.points.resize(3, n);
   for (int i = 0; i < n; ++i) {
     const Gaussian& c = truth.components[i % 3];
-    d.points.col(i) = c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) *
-                                   Eigen::Vector3d(g(rng), g(rng), g(rng));
+    d.points.col(i) =
+        c.mean + Eigen::Matrix3d(c.cov.llt().matrixL()) * Eigen::Vector3d(g(rng), g(rng), g(rng));
   }
   GmmParams p;
   p.min_variance_m2 = 1e-6;
@@ -132,6 +132,50 @@ BENCHMARK(BM_Detect)->Arg(3000)->Arg(30000)->Arg(100000)->Unit(benchmark::kMilli
 
 void BM_DetectWithSuperquadrics(benchmark::State& state) { detection(state, true); }
 BENCHMARK(BM_DetectWithSuperquadrics)->Arg(30000)->Unit(benchmark::kMillisecond);
+
+/// The 30-scene suite of sim::suiteSceneConfig(i, seed) with a range-noise variance of
+/// noise_um2 * 1e-6 m^2 (0: the simulator's default), superquadrics off. Counters: scene
+/// success rate and mean point F1 (evaluation.h); time = the whole loop (simulation,
+/// reference models and detections).
+void BM_Suite(benchmark::State& state) {
+  const auto seed = static_cast<std::uint64_t>(state.range(0));
+  const double noise = static_cast<double>(state.range(1)) * 1e-6;
+  Params p;
+  p.superquadric.enabled = false;
+  int success = 0, scenes = 0;
+  double f1 = 0.0;
+  std::vector<double> detect_ms;
+  for (auto _ : state) {
+    success = scenes = 0;
+    f1 = 0.0;
+    for (int i = 0; i < 30; ++i) {
+      sim::SceneConfig c = sim::suiteSceneConfig(i, seed);
+      if (noise > 0) c.laser.noise_variance_m2 = noise;
+      const sim::ScenePair s = sim::generateScenePair(c);
+      Pipeline pipeline(p);
+      pipeline.setReference(s.reference);
+      const Result r = pipeline.detect(s.current);
+      double ms = 0.0;
+      for (const auto& t : r.timings) ms += t.ms;
+      detect_ms.push_back(ms);
+      const SceneScore sc = scoreLabels(r.labels, s.current_labels);
+      success += sc.success;
+      f1 += sc.f1;
+      ++scenes;
+    }
+  }
+  std::sort(detect_ms.begin(), detect_ms.end());
+  state.counters["success"] = static_cast<double>(success) / scenes;
+  state.counters["mean_f1"] = f1 / scenes;
+  state.counters["median_detect_ms"] = detect_ms[detect_ms.size() / 2];
+}
+BENCHMARK(BM_Suite)
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({1, 100})
+    ->Args({1, 3000})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
 
 }  // namespace
 

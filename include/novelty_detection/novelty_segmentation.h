@@ -69,8 +69,7 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
 /// Connected components of cloud[indices] with the link rule above. Returns components of at
 /// least `min_points` points, as input-cloud indices, largest first; `link_radius_m` gets the
 /// radius used.
-std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices,
-                                    double link_factor, int min_points,
-                                    double* link_radius_m = nullptr);
+std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
+                                    int min_points, double* link_radius_m = nullptr);
 
 }  // namespace novelty_detection

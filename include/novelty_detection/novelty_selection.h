@@ -35,7 +35,7 @@ struct SelectionResult {
   std::vector<double> emd_trace;  ///< d_0, d_1, ... after each accepted removal
   double emd_before = 0.0;
   double emd_after = 0.0;
-  int exact_evaluations = 0;      ///< EMD solves spent on candidates (for benchmarks)
+  int exact_evaluations = 0;  ///< EMD solves spent on candidates (for benchmarks)
 };
 
 class GreedyNoveltySelector {

@@ -1,8 +1,8 @@
 #include "novelty_detection/emd.h"
 
-#include <Eigen/Eigenvalues>
 #include <lemon/network_simplex.h>
 #include <lemon/smart_graph.h>
+#include <Eigen/Eigenvalues>
 
 #include <cmath>
 #include <stdexcept>
@@ -32,9 +32,8 @@ double buresSquared(const Eigen::Matrix3d& sa, const Eigen::Matrix3d& sb,
 
 void checkWeights(const Eigen::VectorXd& w, Eigen::Index expected, const char* name) {
   if (w.size() != expected) {
-    throw std::invalid_argument(std::string("EMD: ") + name + " has " +
-                                std::to_string(w.size()) + " weights, expected " +
-                                std::to_string(expected));
+    throw std::invalid_argument(std::string("EMD: ") + name + " has " + std::to_string(w.size()) +
+                                " weights, expected " + std::to_string(expected));
   }
   if (!w.allFinite() || (w.array() < 0.0).any()) {
     throw std::invalid_argument(std::string("EMD: ") + name +

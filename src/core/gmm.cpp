@@ -100,8 +100,9 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
     const double log_det = 2.0 * l.diagonal().array().log().sum();
     Eigen::Matrix3Xd d = points.colwise() - g.mean;
     l.triangularView<Eigen::Lower>().solveInPlace(d);
-    const double c = (g.weight > 0 ? std::log(g.weight) : -std::numeric_limits<double>::infinity()) -
-                     0.5 * (3.0 * kLog2Pi + log_det);
+    const double c =
+        (g.weight > 0 ? std::log(g.weight) : -std::numeric_limits<double>::infinity()) -
+        0.5 * (3.0 * kLog2Pi + log_det);
     out.row(k) = (c - 0.5 * d.colwise().squaredNorm().array()).matrix();
   }
   return out;
@@ -166,11 +167,8 @@ std::vector<int> GmmFitter::kmeansLabels(const WeightedPoints& data, int k,
     for (int t = 0; t < trials; ++t) {
       const Eigen::Index cand = draw(prob);
       if (cand < 0) break;
-      const double potential =
-          w.dot(d2.cwiseMin((data.points.colwise() - data.points.col(cand))
-                                .colwise()
-                                .squaredNorm()
-                                .transpose()));
+      const double potential = w.dot(d2.cwiseMin(
+          (data.points.colwise() - data.points.col(cand)).colwise().squaredNorm().transpose()));
       if (potential < best_potential) best_potential = potential, best = cand;
     }
     if (best < 0) break;  // every weighted point coincides with a centre

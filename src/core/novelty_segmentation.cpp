@@ -26,14 +26,12 @@ struct NearestNeighbourIndex::Impl {
 NearestNeighbourIndex::NearestNeighbourIndex() : impl_(std::make_unique<Impl>()) {}
 NearestNeighbourIndex::~NearestNeighbourIndex() = default;
 NearestNeighbourIndex::NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept = default;
-NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&) noexcept =
-    default;
+NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&) noexcept = default;
 
 void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
   impl_ = std::make_unique<Impl>();
   auto add = [&](const PointT& p) {
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-      impl_->points->push_back(p);
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) impl_->points->push_back(p);
   };
   if (indices.empty()) {
     for (const auto& p : cloud) add(p);
@@ -112,8 +110,8 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
   return std::max(floor_m, med + factor * 1.4826 * mad);
 }
 
-std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices,
-                                    double link_factor, int min_points, double* link_radius_m) {
+std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
+                                    int min_points, double* link_radius_m) {
   std::vector<Indices> out;
   if (link_radius_m) *link_radius_m = 0.0;
   if (indices.empty()) return out;

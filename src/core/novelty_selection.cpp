@@ -16,14 +16,12 @@ SelectionResult GreedyNoveltySelector::select(const Gmm& current, const Gmm& ref
   Eigen::VectorXd p(current.size()), q(reference.size());
   for (std::size_t i = 0; i < current.size(); ++i) p[i] = current.components[i].weight;
   for (std::size_t j = 0; j < reference.size(); ++j) q[j] = reference.components[j].weight;
-  return select(p, q,
-                groundDistanceMatrix(current, reference,
-                                     parseGroundDistance(params_.ground_distance)),
-                u_th);
+  return select(
+      p, q, groundDistanceMatrix(current, reference, parseGroundDistance(params_.ground_distance)),
+      u_th);
 }
 
-SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in,
-                                              const Eigen::VectorXd& q,
+SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const Eigen::VectorXd& q,
                                               const Eigen::MatrixXd& d, double u_th) const {
   if (u_th < 0) u_th = params_.u_th;
   SelectionResult out;

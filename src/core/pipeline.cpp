@@ -74,8 +74,7 @@ struct Simplified {
   WeightedPoints reps;       ///< `cut` as weighted points
 };
 
-Simplified simplify(const Params& params, const Cloud& cloud, Result* result,
-                    StageTimer* timer) {
+Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer) {
   Simplified s;
   s.pre = Preprocessor(params.preprocess).compute(cloud);
   if (result) {
@@ -91,9 +90,8 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result,
     // alone when range noise makes sigma split nearly every cluster down to its leaves
     // (sigma of a noisy plane patch exceeds sigma_max). Each representative carries its
     // cluster's size and covariance, so EM still sees the full cloud's spread.
-    const int n_max = std::max(params.multiscale.n_max,
-                               static_cast<int>(s.pre.kept.size()) /
-                                   std::max(1, params.gmm.max_fit_points));
+    const int n_max = std::max(params.multiscale.n_max, static_cast<int>(s.pre.kept.size()) /
+                                                            std::max(1, params.gmm.max_fit_points));
     s.fine = s.tree.cut(params.multiscale.n_max, params.multiscale.sigma_max);
     s.cut = s.tree.cut(n_max, params.multiscale.sigma_max);
     if (static_cast<int>(s.cut.points.size()) > params.gmm.max_fit_points)
@@ -213,9 +211,8 @@ Result Pipeline::detect(const Cloud& current) const {
   const std::size_t stride = std::max<std::size_t>(1, kept.size() / 2000);
   for (std::size_t i = 0; i < kept.size(); i += stride)
     sample.push_back(ref.points.distance(point3f(current[kept[i]])));
-  const double tau =
-      noveltyDistanceThreshold(sample, params_.segmentation.novelty_distance_factor,
-                               params_.segmentation.min_novelty_distance_m);
+  const double tau = noveltyDistanceThreshold(sample, params_.segmentation.novelty_distance_factor,
+                                              params_.segmentation.min_novelty_distance_m);
   // Fine clusters farther than tau from the map seed the extra Gaussians of Theta.
   std::vector<Eigen::Index> far_idx;
   for (std::size_t c = 0; c < s.fine.points.size(); ++c)
@@ -307,8 +304,8 @@ Result Pipeline::detect(const Cloud& current) const {
   // Gaussian and whose bounding boxes lie within merge_gap_factor link radii are one object
   // seen through the gaps between tilt lines: merge them (union-find).
   double link_radius = 0.0;
-  std::vector<Indices> pieces = linkComponents(
-      current, novel_points, params_.segmentation.link_factor, 1, &link_radius);
+  std::vector<Indices> pieces =
+      linkComponents(current, novel_points, params_.segmentation.link_factor, 1, &link_radius);
   const std::size_t np = pieces.size();
   std::vector<int> dominant(np), parent(np);
   std::vector<Eigen::Vector3f> lo(np), hi(np);
@@ -345,8 +342,7 @@ Result Pipeline::detect(const Cloud& current) const {
   }
   std::vector<Indices> comps;
   for (Indices& c : merged) {
-    if (c.empty() || static_cast<int>(c.size()) < params_.segmentation.min_segment_points)
-      continue;
+    if (c.empty() || static_cast<int>(c.size()) < params_.segmentation.min_segment_points) continue;
     std::sort(c.begin(), c.end());
     comps.push_back(std::move(c));
   }
@@ -370,11 +366,12 @@ Result Pipeline::detect(const Cloud& current) const {
     }
     result.segments.push_back(std::move(seg));
   }
-  result.point_counts.emplace_back("labelled", novel_points.empty() ? 0 : [&] {
-    std::size_t n = 0;
-    for (const auto& seg : result.segments) n += seg.indices.size();
-    return n;
-  }());
+  result.point_counts.emplace_back(
+      "labelled", novel_points.empty() ? 0 : [&] {
+        std::size_t n = 0;
+        for (const auto& seg : result.segments) n += seg.indices.size();
+        return n;
+      }());
   timer.lap("segmentation");
 
   // Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are

@@ -75,12 +75,24 @@ void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
   const double x = 1.0 - std::abs(std::fmod(h, 2.0) - 1.0);
   double rf = 0, gf = 0, bf = 0;
   switch (static_cast<int>(h)) {
-    case 0: rf = 1, gf = x; break;
-    case 1: rf = x, gf = 1; break;
-    case 2: gf = 1, bf = x; break;
-    case 3: gf = x, bf = 1; break;
-    case 4: rf = x, bf = 1; break;
-    default: rf = 1, bf = x; break;
+    case 0:
+      rf = 1, gf = x;
+      break;
+    case 1:
+      rf = x, gf = 1;
+      break;
+    case 2:
+      gf = 1, bf = x;
+      break;
+    case 3:
+      gf = x, bf = 1;
+      break;
+    case 4:
+      rf = x, bf = 1;
+      break;
+    default:
+      rf = 1, bf = x;
+      break;
   }
   r = static_cast<std::uint8_t>(55 + 200 * rf);
   g = static_cast<std::uint8_t>(55 + 200 * gf);
@@ -91,15 +103,15 @@ json superquadricsJson(const nd::Result& r) {
   json list = json::array();
   for (const auto& sq : r.superquadrics) {
     const Eigen::Quaterniond q = sq.quaternion();
-    list.push_back({{"segment", sq.segment},
-                    {"a", vec(sq.a)},
-                    {"epsilon", json::array({sq.e1, sq.e2})},
-                    {"position", vec(sq.position)},
-                    {"orientation",
-                     {{"quaternion", json::array({q.x(), q.y(), q.z(), q.w()})},
-                      {"euler", vec(sq.euler)}}},
-                    {"points", sq.points},
-                    {"residual", sq.residual}});
+    list.push_back(
+        {{"segment", sq.segment},
+         {"a", vec(sq.a)},
+         {"epsilon", json::array({sq.e1, sq.e2})},
+         {"position", vec(sq.position)},
+         {"orientation",
+          {{"quaternion", json::array({q.x(), q.y(), q.z(), q.w()})}, {"euler", vec(sq.euler)}}},
+         {"points", sq.points},
+         {"residual", sq.residual}});
   }
   return list;
 }
@@ -144,8 +156,7 @@ int run(const Args& args) {
   auto load = [](const std::string& path) {
     nd::CloudFile file = nd::loadCloudFile(path);
     file.cloud.sensor_origin_.head<3>() = file.T_frame_sensor.translation().cast<float>();
-    file.cloud.sensor_orientation_ =
-        Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
+    file.cloud.sensor_orientation_ = Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
     return file.cloud;
   };
   const nd::Cloud reference = load(args.reference);
@@ -190,8 +201,7 @@ int run(const Args& args) {
               "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
   }
   std::cout << "novelty_detect: " << result.segments.size() << " segment(s), "
-            << result.superquadrics.size() << " superquadric(s), detection " << det_ms
-            << " ms\n";
+            << result.superquadrics.size() << " superquadric(s), detection " << det_ms << " ms\n";
   return 0;
 }
 

@@ -14,8 +14,7 @@ namespace {
 
 // Independent reference: Rubner's partial EMD by successive shortest augmenting paths
 // (Bellman-Ford on the residual graph) over source -> rows -> columns -> sink.
-double referenceEmd(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
-                    const Eigen::MatrixXd& d) {
+double referenceEmd(const Eigen::VectorXd& p, const Eigen::VectorXd& q, const Eigen::MatrixXd& d) {
   const int n = p.size(), m = q.size(), nodes = n + m + 2, s = n + m, t = n + m + 1;
   struct Edge {
     int to;
@@ -94,13 +93,13 @@ TEST(Emd, WassersteinGroundDistanceClosedForm) {
   // Isotropic: W2^2 = |dm|^2 + 3 (s_a - s_b)^2 for covariances s^2 I.
   const Gaussian a = gauss(1, {0, 0, 0}, 0.04 * Eigen::Matrix3d::Identity());
   const Gaussian b = gauss(1, {1, 2, 2}, 0.09 * Eigen::Matrix3d::Identity());
-  EXPECT_NEAR(gaussianDistance(a, b, GroundDistance::kWasserstein),
-              std::sqrt(9.0 + 3 * 0.01), 1e-12);
+  EXPECT_NEAR(gaussianDistance(a, b, GroundDistance::kWasserstein), std::sqrt(9.0 + 3 * 0.01),
+              1e-12);
   // Commuting diagonal covariances: sum over axes of (sqrt(a_i) - sqrt(b_i))^2.
   const Gaussian c = gauss(1, {0, 0, 0}, Eigen::Vector3d(1, 4, 9).asDiagonal());
   const Gaussian d = gauss(1, {0, 0, 0}, Eigen::Vector3d(4, 1, 0.25).asDiagonal());
-  EXPECT_NEAR(gaussianDistance(c, d, GroundDistance::kWasserstein),
-              std::sqrt(1.0 + 1.0 + 6.25), 1e-9);
+  EXPECT_NEAR(gaussianDistance(c, d, GroundDistance::kWasserstein), std::sqrt(1.0 + 1.0 + 6.25),
+              1e-9);
   EXPECT_NEAR(gaussianDistance(c, c, GroundDistance::kWasserstein), 0.0, 1e-7);
   // Rank-deficient (planar) covariances are fine.
   const Gaussian flat = gauss(1, {0, 0, 0}, Eigen::Vector3d(1, 1, 0).asDiagonal());

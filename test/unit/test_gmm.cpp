@@ -15,9 +15,8 @@ namespace {
 // Samples a 3-component mixture with known parameters (seeded).
 WeightedPoints sampleMixture(const Gmm& truth, int n, unsigned seed) {
   std::mt19937 rng(seed);
-  std::discrete_distribution<int> pick({truth.components[0].weight,
-                                        truth.components[1].weight,
-                                        truth.components[2].weight});
+  std::discrete_distribution<int> pick(
+      {truth.components[0].weight, truth.components[1].weight, truth.components[2].weight});
   std::normal_distribution<double> g(0.0, 1.0);
   WeightedPoints d;
   d.points.resize(3, n);
@@ -119,8 +118,7 @@ TEST(Gmm, DeterministicForASeed) {
   GmmParams p;
   const Gmm a = GmmFitter(p).fit(data, 5), b = GmmFitter(p).fit(data, 5);
   ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k)
-    EXPECT_EQ(a.components[k].mean, b.components[k].mean);
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a.components[k].mean, b.components[k].mean);
 }
 
 TEST(Gmm, ComponentRuleAndDegenerateInput) {

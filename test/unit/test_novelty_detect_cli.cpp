@@ -1,13 +1,13 @@
 // The novelty_detect command line tool: the DESIGN.md contract files, and clean failures.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <unistd.h>
-#include <algorithm>
 
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
@@ -36,8 +36,8 @@ CliRun runCli(const std::string& args, const fs::path& dir) {
 }
 
 fs::path tempDir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() /
-                     ("novelty_cli_" + name + "_" + std::to_string(::getpid()));
+  const fs::path d =
+      fs::temp_directory_path() / ("novelty_cli_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
@@ -55,8 +55,8 @@ TEST(NoveltyDetectCli, WritesTheContractFiles) {
   saveCloudAtomic((dir / "cur.pcd").string(), s.current);
   const fs::path out = dir / "out" / "nested";  // created when missing
   const CliRun r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
-                        (dir / "cur.pcd").string() + " --out " + out.string(),
-                    dir);
+                              (dir / "cur.pcd").string() + " --out " + out.string(),
+                          dir);
   ASSERT_EQ(r.code, 0) << r.err;
 
   std::ifstream labels(out / "labels.txt");
@@ -82,8 +82,8 @@ TEST(NoveltyDetectCli, WritesTheContractFiles) {
   ASSERT_TRUE(sqs.is_array());
   EXPECT_EQ(sqs.size(), report["num_superquadrics"].get<std::size_t>());
   for (const auto& e : sqs) {
-    for (const char* key : {"segment", "a", "epsilon", "position", "orientation", "points",
-                            "residual"})
+    for (const char* key :
+         {"segment", "a", "epsilon", "position", "orientation", "points", "residual"})
       EXPECT_TRUE(e.contains(key)) << key;
   }
   EXPECT_EQ(loadCloud((out / "segments.pcd").string()).size(), s.current.size());
@@ -94,8 +94,8 @@ TEST(NoveltyDetectCli, FailsCleanly) {
   const fs::path dir = tempDir("bad");
   // Missing input file: non-zero exit, one line naming the problem.
   CliRun r = runCli("--reference " + (dir / "missing.pcd").string() + " --current " +
-                  (dir / "missing.pcd").string() + " --out " + (dir / "o").string(),
-              dir);
+                        (dir / "missing.pcd").string() + " --out " + (dir / "o").string(),
+                    dir);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.err.find("missing.pcd"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -111,8 +111,8 @@ TEST(NoveltyDetectCli, FailsCleanly) {
   saveCloudAtomic((dir / "t.pcd").string(), tiny);
   std::ofstream(dir / "bad.yaml") << "gmm:\n  max_components: -3\n";
   r = runCli("--reference " + (dir / "t.pcd").string() + " --current " + (dir / "t.pcd").string() +
-              " --out " + (dir / "o").string() + " --config " + (dir / "bad.yaml").string(),
-          dir);
+                 " --out " + (dir / "o").string() + " --config " + (dir / "bad.yaml").string(),
+             dir);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.err.find("max_components"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -54,11 +54,10 @@ TEST_P(OneInsertedObject, LabelsMatchGroundTruth) {
     for (int i : seg.indices) EXPECT_EQ(r.labels[i], seg.id);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Simulated, OneInsertedObject,
-    ::testing::Values(std::make_pair(sim::NoveltyKind::kBox, 3u),
-                      std::make_pair(sim::NoveltyKind::kCylinder, 5u),
-                      std::make_pair(sim::NoveltyKind::kSuperellipsoid, 8u)));
+INSTANTIATE_TEST_SUITE_P(Simulated, OneInsertedObject,
+                         ::testing::Values(std::make_pair(sim::NoveltyKind::kBox, 3u),
+                                           std::make_pair(sim::NoveltyKind::kCylinder, 5u),
+                                           std::make_pair(sim::NoveltyKind::kSuperellipsoid, 8u)));
 
 TEST(Pipeline, DegenerateCurrentClouds) {
   const sim::ScenePair s = scene(sim::NoveltyKind::kBox, 3);
