@@ -83,7 +83,9 @@ TEST(PointCloud2BadInput, DegenerateLayoutsAreRefusedByName) {
 }
 
 TEST(PointCloud2BadInput, KeptFuzzInputsConvertOrAreRefused) {
-  const std::string dir = std::string(NOVELTY_TEST_DATA_DIR) + "/../fuzz/corpus/pointcloud2";
+  // NOVELTY_TEST_DATA_DIR is <package>/test/data (which need not exist): its parent is test/.
+  const std::string data_dir = NOVELTY_TEST_DATA_DIR;
+  const std::string dir = data_dir.substr(0, data_dir.rfind('/')) + "/fuzz/corpus/pointcloud2";
   DIR* d = opendir(dir.c_str());
   ASSERT_NE(d, nullptr) << dir;
   int files = 0, converted = 0;
