@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "pointcloud2_from_bytes.h"
 #include "novelty_detection/ros/conversions.h"
+#include "pointcloud2_from_bytes.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const sensor_msgs::PointCloud2 msg = novelty_detection::fuzz::pointCloud2FromBytes(data, size);

@@ -146,9 +146,7 @@ TEST_F(Soak, EveryGoodSweepServedEveryBadOneCountedNoLeaks) {
   novelty_detection::SaveReference save;
   save.request.path = "/tmp/novelty_soak_" + std::to_string(getpid()) + ".pcd";
   ASSERT_TRUE(waitFor(
-      [&] {
-        return ros::service::call("/detector/save_reference", save) && save.response.success;
-      },
+      [&] { return ros::service::call("/detector/save_reference", save) && save.response.success; },
       30.0));
   std::remove(save.request.path.c_str());
 
@@ -176,13 +174,19 @@ TEST_F(Soak, EveryGoodSweepServedEveryBadOneCountedNoLeaks) {
     } else {
       sensor_msgs::PointCloud2 msg;
       switch ((i / 5) % 5) {
-        case 0: msg = test_helpers::toMsg(novelty_detection::Cloud(), "map", stamp); break;
-        case 1: msg = test_helpers::toMsg(nans, "map", stamp); break;
+        case 0:
+          msg = test_helpers::toMsg(novelty_detection::Cloud(), "map", stamp);
+          break;
+        case 1:
+          msg = test_helpers::toMsg(nans, "map", stamp);
+          break;
         case 2:
           msg = test_helpers::toMsg(good[0], "map", stamp);
           msg.fields[0].name = "intensity";
           break;
-        case 3: msg = test_helpers::toMsg(good[0], "no_such_frame", stamp); break;
+        case 3:
+          msg = test_helpers::toMsg(good[0], "no_such_frame", stamp);
+          break;
         default:
           msg = test_helpers::toMsg(good[0], "map", stamp);
           msg.row_step = msg.point_step * msg.width - 1;
@@ -199,7 +203,11 @@ TEST_F(Soak, EveryGoodSweepServedEveryBadOneCountedNoLeaks) {
   // and for every rejection to be reported.
   // (+1: the captured reference sweep is received, neither processed nor rejected.)
   waitFor([&] { return counter("sweeps received") == sweeps_ + 1; }, 15.0);
-  waitFor([&] { return counter("sweeps rejected") + counter("sweeps dropped (stale)") >= n_rejectable; }, 5.0);
+  waitFor(
+      [&] {
+        return counter("sweeps rejected") + counter("sweeps dropped (stale)") >= n_rejectable;
+      },
+      5.0);
   const long received = counter("sweeps received"), processed = counter("sweeps processed"),
              rejected = counter("sweeps rejected"), dropped = counter("sweeps dropped (stale)"),
              tf_failures = counter("transform failures"), failed = counter("detections failed");
@@ -209,10 +217,11 @@ TEST_F(Soak, EveryGoodSweepServedEveryBadOneCountedNoLeaks) {
       "rejected %ld dropped %ld tf failures %ld failed %ld\n",
       sweeps_, n_good, n_rejectable, n_unknown_frame, received, processed, rejected, dropped,
       tf_failures, failed);
-  std::printf("soak: manager at sweep %d: RSS %.1f MB, %d threads, %d fds; at sweep %d: RSS %.1f MB, "
-              "%d threads, %d fds\n",
-              baseline_at, baseline.rss_mb, baseline.threads, baseline.fds, sweeps_, last.rss_mb,
-              last.threads, last.fds);
+  std::printf(
+      "soak: manager at sweep %d: RSS %.1f MB, %d threads, %d fds; at sweep %d: RSS %.1f MB, "
+      "%d threads, %d fds\n",
+      baseline_at, baseline.rss_mb, baseline.threads, baseline.fds, sweeps_, last.rss_mb,
+      last.threads, last.fds);
 
   EXPECT_EQ(missing, 0);
   EXPECT_EQ(received, sweeps_ + 1);
