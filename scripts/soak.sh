@@ -12,6 +12,12 @@ N="${1:-1000}"
   bash "$REPO/scripts/build.sh" test_soak
 }
 source_devel
+# Against a sanitized workspace (NOVELTY_SANITIZE=ON): preload ASan into the manager and keep
+# its quarantine small so that RSS measures the package, not ASan's freed-memory cache.
+if [ "${NOVELTY_SANITIZE:-OFF}" = ON ]; then
+  export LD_PRELOAD="$(${CXX:-c++} -print-file-name=libasan.so)"
+  export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:quarantine_size_mb=1:${ASAN_OPTIONS:-}"
+fi
 # Under a slow or shared machine a sweep takes up to ~1 s; allow that plus start-up.
 LIMIT=$((N + 120))
 log "soak: $N sweeps (time limit ${LIMIT}s)"
