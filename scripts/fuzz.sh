@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang (ASan + UBSan) and runs each for a fixed time.
 #   scripts/fuzz.sh [SECONDS_PER_TARGET]   (default 60)
+# NOVELTY_FUZZ_TARGETS="fuzz_pointcloud2" runs only the named targets.
 # Findings are written to .ws/fuzz/<target>/ (crash-*, timeout-*); copy a minimised one to
 # test/fuzz/corpus/<target>/ and add a regression test when fixing it.
 set -euo pipefail
@@ -20,7 +21,11 @@ build_target() {  # name, sources...
     -lboost_system -lboost_filesystem
 }
 build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/core/cloud_io.cpp"
-for target in fuzz_cloud_file; do
+# Message headers are header-only; rostime/roscpp_serialization hold the few out-of-line bits.
+build_target fuzz_pointcloud2 "$REPO/test/fuzz/fuzz_pointcloud2.cpp" "$REPO/src/ros/conversions.cpp" \
+  -lroscpp_serialization -lrostime
+TARGETS="${NOVELTY_FUZZ_TARGETS:-fuzz_cloud_file fuzz_pointcloud2}"
+for target in $TARGETS; do
   corpus_src="$REPO/test/fuzz/corpus/${target#fuzz_}"
   work="$OUT/$target"
   mkdir -p "$work/corpus"

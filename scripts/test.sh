@@ -8,7 +8,13 @@ cd "$WS"
 rm -rf "$WS/build/test_results"
 log "running tests"
 set +e
-catkin_make run_tests -j"${NOVELTY_JOBS:-2}" > "$WS/test.log" 2>&1
+# A sanitized build: the nodelet manager and python's rostest are not instrumented but load
+# instrumented libraries, so the ASan runtime is preloaded into the test processes only.
+preload=()
+if [ "${NOVELTY_SANITIZE:-OFF}" = ON ]; then
+  preload=(env LD_PRELOAD="$(${CXX:-c++} -print-file-name=libasan.so)")
+fi
+"${preload[@]}" catkin_make run_tests -j"${NOVELTY_JOBS:-2}" > "$WS/test.log" 2>&1
 run_rc=$?
 set -e
 grep -E "^\[ *(OK|FAILED|PASSED) *\]|^\[ RUN|FAILURE|ERROR:" "$WS/test.log" | grep -v "^\[ RUN" || true
