@@ -141,6 +141,17 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
           file_size) {
     fail(path, "truncated binary pcd file (data shorter than its header declares)");
   }
+  if (data == "ascii") {
+    // PCL's ASCII parser misreads binary bytes (a NUL made it allocate terabytes); an
+    // ASCII body is printable text and white space only.
+    char c = 0;
+    while (in.get(c)) {
+      const unsigned char u = static_cast<unsigned char>(c);
+      if (u > 126 || (u < 32 && u != '\n' && u != '\r' && u != '\t' && u != ' ')) {
+        fail(path, "malformed ascii pcd file (binary bytes in its data)");
+      }
+    }
+  }
   if (data == "binary_compressed" && header_bytes + 8 > file_size) {
     fail(path, "truncated compressed pcd file");
   }
