@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -114,6 +115,7 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
   if (points < 0) points = width * height;
   if (width * height != points) fail(path, "malformed pcd header (WIDTH * HEIGHT != POINTS)");
   long long point_step = 0;
+  long long values_per_point = 0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const std::string& sz = sizes[i];
     if (sz != "1" && sz != "2" && sz != "4" && sz != "8") fail(path, "malformed pcd header (SIZE)");
@@ -134,6 +136,7 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
       }
     }
     point_step += std::stoll(sz) * count;
+    values_per_point += count;
   }
   if (data == "binary" &&
       static_cast<std::uintmax_t>(header_bytes) + static_cast<std::uintmax_t>(points) *
@@ -142,14 +145,40 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
     fail(path, "truncated binary pcd file (data shorter than its header declares)");
   }
   if (data == "ascii") {
-    // PCL's ASCII parser misreads binary bytes (a NUL made it allocate terabytes); an
-    // ASCII body is printable text and white space only.
-    char c = 0;
-    while (in.get(c)) {
-      const unsigned char u = static_cast<unsigned char>(c);
-      if (u > 126 || (u < 32 && u != '\n' && u != '\r' && u != '\t' && u != ' ')) {
-        fail(path, "malformed ascii pcd file (binary bytes in its data)");
+    // PCL's ASCII parser misreads bodies that do not match the header (binary bytes or a
+    // stray word made it allocate terabytes), so the body is checked in full: text only,
+    // exactly POINTS lines of exactly sum(COUNT) numbers (nan and inf allowed).
+    long long rows = 0;
+    std::string row;
+    while (std::getline(in, row)) {
+      if (!row.empty() && row.back() == '\r') row.pop_back();
+      for (char c : row) {
+        const unsigned char u = static_cast<unsigned char>(c);
+        if (u > 126 || (u < 32 && u != '\t')) {
+          fail(path, "malformed ascii pcd file (binary bytes in its data)");
+        }
       }
+      std::istringstream tokens(row);
+      long long n = 0;
+      for (std::string t; tokens >> t; ++n) {
+        char* end = nullptr;
+        std::strtod(t.c_str(), &end);
+        if (end == t.c_str() || *end != '\0') {
+          fail(path, "malformed ascii pcd file (non-numeric value on data line " +
+                         std::to_string(rows + 1) + ")");
+        }
+      }
+      if (n == 0) continue;
+      if (n != values_per_point) {
+        fail(path, "malformed ascii pcd file (data line " + std::to_string(rows + 1) + " has " +
+                       std::to_string(n) + " values, the header declares " +
+                       std::to_string(values_per_point) + ")");
+      }
+      if (++rows > points) fail(path, "malformed ascii pcd file (more data lines than POINTS)");
+    }
+    if (rows < points) {
+      fail(path, "truncated ascii pcd file (" + std::to_string(rows) + " of " +
+                     std::to_string(points) + " points)");
     }
   }
   if (data == "binary_compressed" && header_bytes + 8 > file_size) {

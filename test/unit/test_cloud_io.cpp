@@ -72,7 +72,7 @@ TEST(CloudIo, FuzzFindingsStayFixed) {
   // Every file kept under test/fuzz/corpus/cloud_file: its first byte picks the extension
   // (odd: .ply), the rest is the file. Each must load or fail with runtime_error.
   const std::string dir = std::string(NOVELTY_SOURCE_DIR) + "/test/fuzz/corpus/cloud_file/";
-  for (const char* name : {"regression_float_size2", "regression_duplicate_fields", "regression_ply_negative_count", "regression_blank_header_lines", "regression_binary_in_ascii_body", "pcd_ascii", "pcd_binary", "ply_ascii"}) {
+  for (const char* name : {"regression_float_size2", "regression_duplicate_fields", "regression_ply_negative_count", "regression_blank_header_lines", "regression_binary_in_ascii_body", "regression_ascii_token_count", "pcd_ascii", "pcd_binary", "ply_ascii"}) {
     std::ifstream in(dir + name, std::ios::binary);
     ASSERT_TRUE(in.good()) << name;
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -88,6 +88,14 @@ TEST(CloudIo, FuzzFindingsStayFixed) {
   std::ofstream(f) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 2\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
                       "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
   EXPECT_NE(errorOf(f).find("SIZE of a float"), std::string::npos);
+  const std::string words = tmpPath("words.pcd");
+  std::ofstream(words) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                          "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\nFIELDS2550\n";
+  EXPECT_NE(errorOf(words).find("non-numeric"), std::string::npos);
+  const std::string short_rows = tmpPath("short.pcd");
+  std::ofstream(short_rows) << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                               "WIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n1 2 3\n4 5\nnan nan nan\n";
+  EXPECT_NE(errorOf(short_rows).find("has 2 values"), std::string::npos);
   const std::string ply = tmpPath("negative.ply");
   std::ofstream(ply) << "ply\nformat ascii 1.0\nelement vertex -1\nproperty float x\n"
                         "property float y\nproperty float z\nend_header\n1 2 3\n";
