@@ -110,16 +110,19 @@ void NoveltyDetectorNodelet::onInit() {
   diagnostics_timer_ = pnh.createWallTimer(
       ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
 
-  // Live tuning: start the server at the loaded values, not the .cfg defaults.
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<DetectorConfig>>(
-      reconfigure_mutex_, ros::NodeHandle(pnh, "tuning"));
+  // Live tuning. The server reads its start values from the parameter server when it is
+  // constructed and answers requests from then on, so the loaded values are put there
+  // first: it never serves the .cfg defaults, not even for a moment.
   {
+    const ros::NodeHandle tuning_nh(pnh, "tuning");
     DetectorConfig initial = DetectorConfig::__getDefault__();
     dynamic_reconfigure::Config msg;
     initial.__toMessage__(msg);
     paramsToConfigMsg(params_, msg);
     initial.__fromMessage__(msg);
-    reconfigure_->updateConfig(initial);
+    initial.__toServer__(tuning_nh);
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<DetectorConfig>>(
+        reconfigure_mutex_, tuning_nh);
   }
   reconfigure_->setCallback([this](DetectorConfig& config, uint32_t level) {
     onReconfigure(config, level);
