@@ -46,7 +46,11 @@ void BM_FitOneSuperquadric(benchmark::State& state) {
   state.counters["visible_surface_mm"] =
       1e3 * meanRadialDistance(r.sq, samples::noisySamples(truth, 2000, 0.0, 9u, &sensor));
 }
-BENCHMARK(BM_FitOneSuperquadric)->Arg(100)->Arg(500)->Arg(2000)->Arg(10000)
+BENCHMARK(BM_FitOneSuperquadric)
+    ->Arg(100)
+    ->Arg(500)
+    ->Arg(2000)
+    ->Arg(10000)
     ->Unit(benchmark::kMillisecond);
 
 /// One LM run (no multi-start) from the moment initialisation.
@@ -96,16 +100,15 @@ std::vector<Novelty> scene() {
   // A box (a crate), a cylinder (a bin), a person-like composite.
   s.push_back(makeNovelty({makeSq({0.3, 0.25, 0.3}, 0.15, 0.15, {0.4, 0, 0}, {3.0, 1.0, 0.3})},
                           2500, sensor, 1u));
-  s.push_back(makeNovelty({makeSq({0.2, 0.2, 0.45}, 0.1, 1.0, {0, 0, 0}, {3.5, -1.0, 0.45})},
-                          2500, sensor, 2u));
-  s.push_back(makeNovelty(
-      {makeSq({0.10, 0.18, 0.28}, 0.3, 0.3, {0, 0, 0}, {4.0, 0, 1.2}),
-       makeSq({0.09, 0.09, 0.11}, 1.0, 1.0, {0, 0, 0}, {4.0, 0, 1.6}),
-       makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {4.0, -0.09, 0.45}),
-       makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {4.0, 0.09, 0.45}),
-       makeSq({0.05, 0.05, 0.30}, 0.2, 1.0, {0, 0, 0}, {4.0, -0.25, 1.15}),
-       makeSq({0.05, 0.05, 0.30}, 0.2, 1.0, {0, 0, 0}, {4.0, 0.25, 1.15})},
-      1200, sensor, 3u));
+  s.push_back(makeNovelty({makeSq({0.2, 0.2, 0.45}, 0.1, 1.0, {0, 0, 0}, {3.5, -1.0, 0.45})}, 2500,
+                          sensor, 2u));
+  s.push_back(makeNovelty({makeSq({0.10, 0.18, 0.28}, 0.3, 0.3, {0, 0, 0}, {4.0, 0, 1.2}),
+                           makeSq({0.09, 0.09, 0.11}, 1.0, 1.0, {0, 0, 0}, {4.0, 0, 1.6}),
+                           makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {4.0, -0.09, 0.45}),
+                           makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {4.0, 0.09, 0.45}),
+                           makeSq({0.05, 0.05, 0.30}, 0.2, 1.0, {0, 0, 0}, {4.0, -0.25, 1.15}),
+                           makeSq({0.05, 0.05, 0.30}, 0.2, 1.0, {0, 0, 0}, {4.0, 0.25, 1.15})},
+                          1200, sensor, 3u));
   return s;
 }
 

@@ -88,13 +88,13 @@ struct MultiScaleParams {
 struct GmmParams {
   int max_components = 64;            ///< cap on the number of Gaussians (the paper's speed cap)
   double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
-  int max_fit_points = 1500;          ///< EM runs on at most about this many cluster representatives
-  int max_iterations = 30;            ///< EM iteration cap
-  double tolerance = 1e-3;            ///< stop when the mean log-likelihood gains less [nats]
-  double min_variance_m2 = 1e-4;      ///< added to covariance diagonals (planar clusters)
-  bool current_from_reference = true; ///< start the current EM from the reference mixture
-  int max_extra_components = 16;      ///< extra current Gaussians seeded where the map has none
-  int seed = 42;                      ///< RNG seed (determinism)
+  int max_fit_points = 1500;      ///< EM runs on at most about this many cluster representatives
+  int max_iterations = 30;        ///< EM iteration cap
+  double tolerance = 1e-3;        ///< stop when the mean log-likelihood gains less [nats]
+  double min_variance_m2 = 1e-4;  ///< added to covariance diagonals (planar clusters)
+  bool current_from_reference = true;  ///< start the current EM from the reference mixture
+  int max_extra_components = 16;       ///< extra current Gaussians seeded where the map has none
+  int seed = 42;                       ///< RNG seed (determinism)
 
   template <class F>
   void visit(F&& f) {
@@ -142,16 +142,16 @@ struct SelectionParams {
 
 /// Labelling every input point from the novel Gaussians (ChoosePtfromGaussian).
 struct SegmentationParams {
-  double posterior_threshold = 0.5;     ///< min posterior of the novel Gaussians
-  double novelty_distance_factor = 6.0; ///< tau = median + factor * 1.4826 MAD of NN distances
-  double min_novelty_distance_m = 0.0;  ///< floor of tau [m]
-  double link_factor = 2.5;             ///< link radius = factor * novel-point spacing
-  double merge_gap_factor = 4.0;        ///< pieces of one Gaussian this close merge
-  int min_segment_points = 20;          ///< smaller segments are dropped
+  double posterior_threshold = 0.5;      ///< min posterior of the novel Gaussians
+  double novelty_distance_factor = 6.0;  ///< tau = median + factor * 1.4826 MAD of NN distances
+  double min_novelty_distance_m = 0.0;   ///< floor of tau [m]
+  double link_factor = 2.5;              ///< link radius = factor * novel-point spacing
+  double merge_gap_factor = 4.0;         ///< pieces of one Gaussian this close merge
+  int min_segment_points = 20;           ///< smaller segments are dropped
   double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
   double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
-  bool hidden_unexplained = false; ///< points hidden from the map may be novel if unexplained
+  bool hidden_unexplained = false;       ///< points hidden from the map may be novel if unexplained
 
   template <class F>
   void visit(F&& f) {
@@ -186,30 +186,30 @@ struct SegmentationParams {
 /// Sizes are bounded relative to h, the largest half extent of the fitted points along their
 /// principal axes, so the bounds scale with the data.
 struct SuperquadricParams {
-  bool enabled = true;              ///< fit superquadrics to segments
-  double epsilon_min = 0.1;         ///< lower bound of e1, e2
-  double epsilon_max = 1.9;         ///< upper bound of e1, e2
-  int max_iterations = 50;          ///< LM iteration cap per fit
-  double function_tolerance = 1e-6; ///< LM stops when the cost changes relatively less
-  bool autodiff = false;            ///< Jets instead of the analytic Jacobian (reference)
-  double min_size_m = 0.005;        ///< absolute lower bound of a1, a2, a3 [m]
-  double min_size_fraction = 0.05;  ///< sizes >= this fraction of h (no flat-disc collapse)
-  double max_size_factor = 1.25;    ///< sizes <= this multiple of h (no explosion)
-  std::string robust_loss = "none"; ///< "none", "huber" or "cauchy"
-  double robust_loss_scale = 0.2;   ///< loss scale as a fraction of sqrt(a1 a2 a3)
-  int screening_points = 64;        ///< points used to compare the initial guesses
-  int screening_iterations = 5;     ///< LM iterations per initial guess while comparing
-  int max_fit_points = 600;         ///< a segment's fine points are subsampled to this
-  int split_max_points = 2400;      ///< split and merge works on at most this many points
-  int split_min_points = 40;        ///< a part is not split into halves smaller than this
-  int split_fit_points = 80;        ///< parts are subsampled to this while splitting/merging
-  double split_gain = 0.9;          ///< split when halves' mean error < split_gain * parent's
-  double split_force_factor = 1.25; ///< split regardless of gain above this x exact error
-  double merge_tolerance = 0.25;    ///< slack of the merge rule (see split_merge.h)
-  double error_floor_m = 0.002;     ///< fits with a smaller mean radial error are exact [m]
-  double noise_factor = 1.5;        ///< ... and so are fits within this x estimated noise
+  bool enabled = true;               ///< fit superquadrics to segments
+  double epsilon_min = 0.1;          ///< lower bound of e1, e2
+  double epsilon_max = 1.9;          ///< upper bound of e1, e2
+  int max_iterations = 50;           ///< LM iteration cap per fit
+  double function_tolerance = 1e-6;  ///< LM stops when the cost changes relatively less
+  bool autodiff = false;             ///< Jets instead of the analytic Jacobian (reference)
+  double min_size_m = 0.005;         ///< absolute lower bound of a1, a2, a3 [m]
+  double min_size_fraction = 0.05;   ///< sizes >= this fraction of h (no flat-disc collapse)
+  double max_size_factor = 1.25;     ///< sizes <= this multiple of h (no explosion)
+  std::string robust_loss = "none";  ///< "none", "huber" or "cauchy"
+  double robust_loss_scale = 0.2;    ///< loss scale as a fraction of sqrt(a1 a2 a3)
+  int screening_points = 64;         ///< points used to compare the initial guesses
+  int screening_iterations = 5;      ///< LM iterations per initial guess while comparing
+  int max_fit_points = 600;          ///< a segment's fine points are subsampled to this
+  int split_max_points = 2400;       ///< split and merge works on at most this many points
+  int split_min_points = 40;         ///< a part is not split into halves smaller than this
+  int split_fit_points = 80;         ///< parts are subsampled to this while splitting/merging
+  double split_gain = 0.9;           ///< split when halves' mean error < split_gain * parent's
+  double split_force_factor = 1.25;  ///< split regardless of gain above this x exact error
+  double merge_tolerance = 0.25;     ///< slack of the merge rule (see split_merge.h)
+  double error_floor_m = 0.002;      ///< fits with a smaller mean radial error are exact [m]
+  double noise_factor = 1.5;         ///< ... and so are fits within this x estimated noise
   double neighbour_distance_factor = 1.0;  ///< parts touch within this x neighbourhood radius
-  int max_parts = 8;                ///< cap on superquadrics per segment
+  int max_parts = 8;                       ///< cap on superquadrics per segment
 
   template <class F>
   void visit(F&& f) {
@@ -230,8 +230,7 @@ struct SuperquadricParams {
     f("robust_loss", robust_loss, "robust loss on eq. 3's residuals: none, huber or cauchy");
     f("robust_loss_scale", robust_loss_scale,
       "robust loss scale as a fraction of sqrt(a1 a2 a3) of the start model");
-    f("screening_points", screening_points,
-      "points used to compare the initial guesses of a fit");
+    f("screening_points", screening_points, "points used to compare the initial guesses of a fit");
     f("screening_iterations", screening_iterations,
       "Levenberg-Marquardt iterations per initial guess while comparing them");
     f("max_fit_points", max_fit_points,
@@ -252,7 +251,8 @@ struct SuperquadricParams {
       "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
       "merge_tolerance) times their sum");
     f("error_floor_m", error_floor_m,
-      "a fit with a smaller mean distance to its points is exact: it is not split, merges into it are "
+      "a fit with a smaller mean distance to its points is exact: it is not split, merges into it "
+      "are "
       "allowed [m]");
     f("noise_factor", noise_factor,
       "a fit whose mean distance is below noise_factor times the estimated sensor noise "

@@ -16,8 +16,8 @@
 namespace novelty_detection {
 
 struct ShapeScore {
-  int objects = 0;                      ///< found objects whose segment has superquadrics
-  double mean_surface_distance_m = 0.0; ///< mean over those objects
+  int objects = 0;                       ///< found objects whose segment has superquadrics
+  double mean_surface_distance_m = 0.0;  ///< mean over those objects
   std::vector<std::pair<int, double>> per_object;  ///< (object id, mean distance [m])
 };
 

@@ -29,8 +29,9 @@ struct SuperquadricPart {
 /// when e > E, both halves keep >= split_min_points, and the halves' points-weighted mean
 /// error (n1 e1 + n2 e2) / n < split_gain * e, or regardless of the halves when the part is
 /// far from explained, e > split_force_factor * E (a cut across a junction can leave both
-/// halves mixed, no better than the parent; the merge regroups what belongs together). Parts are split in order of their distortion
-/// n * e, recursively, up to 4 * max_parts leaves (a binary tree).
+/// halves mixed, no better than the parent; the merge regroups what belongs together). Parts are
+/// split in order of their distortion n * e, recursively, up to 4 * max_parts leaves (a binary
+/// tree).
 ///
 /// Neighbours: sibling leaves, and leaves whose points come closer than r (found with a
 /// hash grid, once; the merge reuses this topology instead of recomputing it).
@@ -62,17 +63,16 @@ class SplitMerge {
 
   /// Parts of `points` (one connected object or a few touching ones). `whole` (optional)
   /// is an already fitted model of all points, reused as the root's fit.
-  std::vector<SuperquadricPart> run(const Points3d& points,
-                                    const FitResult* whole = nullptr) const;
+  std::vector<SuperquadricPart> run(const Points3d& points, const FitResult* whole = nullptr) const;
 
   /// Counters of the last run() (for tests and benchmarks).
   struct Stats {
-    int leaves = 0;         ///< parts after splitting
-    int merges = 0;         ///< merges performed
-    int merge_fits = 0;     ///< merged fits computed (memoization lowers it)
+    int leaves = 0;      ///< parts after splitting
+    int merges = 0;      ///< merges performed
+    int merge_fits = 0;  ///< merged fits computed (memoization lowers it)
     int neighbour_pairs = 0;
-    int dissolved = 0;      ///< junction pieces dissolved into their neighbours
-    double noise_m = 0.0;   ///< estimated sensor noise (local plane RMS) [m]
+    int dissolved = 0;     ///< junction pieces dissolved into their neighbours
+    double noise_m = 0.0;  ///< estimated sensor noise (local plane RMS) [m]
   };
   const Stats& stats() const { return stats_; }
 

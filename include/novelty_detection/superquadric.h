@@ -42,8 +42,8 @@ T logInsideOutsideCanonical(const T& x, const T& y, const T& z, const T& a1, con
 /// Eq. 3's residual for one point in the canonical frame: sqrt(a1 a2 a3) (F^e1 - 1).
 /// F^e1 = exp(e1 log F) grows only like (|p| / a)^2 for far points.
 template <class T>
-T fitResidualCanonical(const T& x, const T& y, const T& z, const T& a1, const T& a2,
-                       const T& a3, const T& e1, const T& e2) {
+T fitResidualCanonical(const T& x, const T& y, const T& z, const T& a1, const T& a2, const T& a3,
+                       const T& e1, const T& e2) {
   using std::exp;
   using std::sqrt;
   const T log_f = logInsideOutsideCanonical(x, y, z, a1, a2, a3, e1, e2);

@@ -28,7 +28,7 @@ PrincipalFrame principalFrame(const Points3d& points);
 struct FitResult {
   Superquadric sq;
   double mean_radial_distance = 0.0;  ///< [m] over the fitted points: the quality measure
-  double mean_distance = 0.0;  ///< [m] first-order Euclidean (meanSurfaceDistance())
+  double mean_distance = 0.0;         ///< [m] first-order Euclidean (meanSurfaceDistance())
   double residual = 0.0;              ///< mean of eq. 3's squared terms over the points
   int iterations = 0;                 ///< LM iterations of the final run
 };

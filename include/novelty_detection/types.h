@@ -1,10 +1,10 @@
 // Shared data types of the novelty_detection core. ROS-free.
 #pragma once
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <string>
 #include <utility>
@@ -55,13 +55,13 @@ struct Superquadric {
 
 /// A connected set of novel points: one changed object.
 struct Segment {
-  int id = 0;                          ///< > 0, the label written for its points
-  Indices indices;                     ///< indices into the input (current) cloud
+  int id = 0;       ///< > 0, the label written for its points
+  Indices indices;  ///< indices into the input (current) cloud
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero();
   Eigen::Vector3d bbox_max = Eigen::Vector3d::Zero();
-  double emd_contribution = 0.0;       ///< EMD decrease owed to its Gaussians
-  std::vector<int> gaussians;          ///< indices into Result::current_gmm
+  double emd_contribution = 0.0;  ///< EMD decrease owed to its Gaussians
+  std::vector<int> gaussians;     ///< indices into Result::current_gmm
 };
 
 /// Wall time of one named stage, in milliseconds.

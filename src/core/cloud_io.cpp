@@ -5,6 +5,8 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -12,10 +14,8 @@
 #include <fstream>
 #include <set>
 #include <sstream>
-#include <vector>
 #include <stdexcept>
-#include <sys/stat.h>
-#include <unistd.h>
+#include <vector>
 
 namespace novelty_detection {
 namespace {
@@ -88,13 +88,20 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
       fail(path, "malformed pcd header (" + canonical.substr(0, 32) + " declared twice)");
     }
     if (key == "VERSION" || key == "VIEWPOINT") continue;
-    if (key == "FIELDS" || key == "COLUMNS") fields = values;
-    else if (key == "SIZE") sizes = values;
-    else if (key == "TYPE") types = values;
-    else if (key == "COUNT") counts = values;
-    else if (key == "WIDTH") width = number("WIDTH");
-    else if (key == "HEIGHT") height = number("HEIGHT");
-    else if (key == "POINTS") points = number("POINTS");
+    if (key == "FIELDS" || key == "COLUMNS")
+      fields = values;
+    else if (key == "SIZE")
+      sizes = values;
+    else if (key == "TYPE")
+      types = values;
+    else if (key == "COUNT")
+      counts = values;
+    else if (key == "WIDTH")
+      width = number("WIDTH");
+    else if (key == "HEIGHT")
+      height = number("HEIGHT");
+    else if (key == "POINTS")
+      points = number("POINTS");
     else if (key == "DATA") {
       data = values.empty() ? "" : values[0];
       break;
@@ -139,8 +146,8 @@ void validatePcdHeader(const std::string& path, std::uintmax_t file_size) {
     values_per_point += count;
   }
   if (data == "binary" &&
-      static_cast<std::uintmax_t>(header_bytes) + static_cast<std::uintmax_t>(points) *
-                                                      static_cast<std::uintmax_t>(point_step) >
+      static_cast<std::uintmax_t>(header_bytes) +
+              static_cast<std::uintmax_t>(points) * static_cast<std::uintmax_t>(point_step) >
           file_size) {
     fail(path, "truncated binary pcd file (data shorter than its header declares)");
   }
@@ -290,8 +297,7 @@ CloudFile loadCloudFile(const std::string& path) {
   if (!hasFloatField(blob, "x") || !hasFloatField(blob, "y") || !hasFloatField(blob, "z")) {
     fail(path, "it has no float32 x, y, z fields");
   }
-  const std::size_t expected =
-      static_cast<std::size_t>(blob.width) * blob.height * blob.point_step;
+  const std::size_t expected = static_cast<std::size_t>(blob.width) * blob.height * blob.point_step;
   if (blob.data.size() < expected) fail(path, "data shorter than its header declares");
 
   CloudFile out;

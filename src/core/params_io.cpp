@@ -56,11 +56,14 @@ void applyYaml(const YAML::Node& root, const std::string& where, Params& out) {
   });
   for (const auto& g : root) {
     const std::string group = g.first.as<std::string>();
-    if (!groups.count(group)) throw std::invalid_argument(where + ": unknown group '" + group + "'");
-    if (!g.second.IsMap()) throw std::invalid_argument(where + ": group '" + group + "' must be a map");
+    if (!groups.count(group))
+      throw std::invalid_argument(where + ": unknown group '" + group + "'");
+    if (!g.second.IsMap())
+      throw std::invalid_argument(where + ": group '" + group + "' must be a map");
     for (const auto& kv : g.second) {
       const std::string key = group + "/" + kv.first.as<std::string>();
-      if (!known.count(key)) throw std::invalid_argument(where + ": unknown parameter '" + key + "'");
+      if (!known.count(key))
+        throw std::invalid_argument(where + ": unknown parameter '" + key + "'");
     }
   }
   params.visit([&](const char* group, const char* name, auto& value, const char*) {
@@ -72,8 +75,8 @@ void applyYaml(const YAML::Node& root, const std::string& where, Params& out) {
     try {
       value = node.as<T>();
     } catch (const YAML::Exception&) {
-      throw std::invalid_argument(where + ": parameter " + group + "/" + name + " must be of type " +
-                                  typeName<T>());
+      throw std::invalid_argument(where + ": parameter " + group + "/" + name +
+                                  " must be of type " + typeName<T>());
     }
   });
   params.validate();

@@ -19,8 +19,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
                                                   int segment_id) const {
   if (!params_.enabled) return {};
   if (fine.empty()) {
-    throw std::invalid_argument("ShapeRetrieval::recover: segment " +
-                                std::to_string(segment_id) + " has no points");
+    throw std::invalid_argument("ShapeRetrieval::recover: segment " + std::to_string(segment_id) +
+                                " has no points");
   }
   const SuperquadricFitter fitter(params_);
   Indices sm_index;
@@ -59,8 +59,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   std::unique_ptr<PointGrid> grid;
   const double spacing = medianSpacing(sm_points);
   if (parts.size() > 1 && fine.size() > sm_points.size() && spacing > 0.0) {
-    grid = std::make_unique<PointGrid>(sm_points,
-                                       params_.neighbour_distance_factor * spacing);
+    grid = std::make_unique<PointGrid>(sm_points, params_.neighbour_distance_factor * spacing);
   }
   std::vector<Superquadric> out(parts.size());
   std::vector<Points3d> part_points(parts.size());

@@ -167,8 +167,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     }
     if (lo.size() < min_points || hi.size() < min_points) continue;
     FitResult fit_lo = fit_part(lo), fit_hi = fit_part(hi);
-    const double e_split = (lo.size() * fit_lo.mean_distance +
-                            hi.size() * fit_hi.mean_distance) /
+    const double e_split = (lo.size() * fit_lo.mean_distance + hi.size() * fit_hi.mean_distance) /
                            static_cast<double>(idx.size());
     // A cut across a junction can leave both halves mixed and no better than the parent:
     // a part far from explained (e > split_force_factor E) is split regardless.
@@ -234,9 +233,8 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     if (i > j) std::swap(i, j);
     // The merged model starts from the bigger part's model: cheaper than a multi-start and
     // as good for pieces of one shape (the case where a merge is accepted).
-    const Points3d united =
-        subsample(gather(points, sortedUnion(parts[i].indices, parts[j].indices)),
-                  params_.split_fit_points);
+    const Points3d united = subsample(
+        gather(points, sortedUnion(parts[i].indices, parts[j].indices)), params_.split_fit_points);
     const int start = parts[i].indices.size() >= parts[j].indices.size() ? i : j;
     FitResult f = fitter_.refine(united, parts[start].fit.sq, inner_iterations);
     cost[at(i, j)] = f.mean_distance;
@@ -361,13 +359,14 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
         continue;
       }
       std::vector<Indices> gained(out.size());
-      for (std::size_t n = 0; n < out[j].indices.size(); ++n) gained[target[n]].push_back(out[j].indices[n]);
+      for (std::size_t n = 0; n < out[j].indices.size(); ++n)
+        gained[target[n]].push_back(out[j].indices[n]);
       for (std::size_t k = 0; k < out.size(); ++k) {
         if (gained[k].empty()) continue;
         out[k].indices = sortedUnion(out[k].indices, gained[k]);
-        out[k].fit = fitter_.refine(
-            subsample(gather(points, out[k].indices), params_.split_fit_points), out[k].fit.sq,
-            inner_iterations);
+        out[k].fit =
+            fitter_.refine(subsample(gather(points, out[k].indices), params_.split_fit_points),
+                           out[k].fit.sq, inner_iterations);
       }
       out.erase(out.begin() + static_cast<std::ptrdiff_t>(j));
       ++stats_.dissolved;
@@ -376,8 +375,9 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     }
   }
   // Boundaries: the split planes cut across junctions, so a part may keep a sliver of its
-  // neighbour. Every point moves to the part whose surface is nearest; the changed parts are refitted from their models, and the
-  // round is kept only if the total distortion (sum of point distances) drops.
+  // neighbour. Every point moves to the part whose surface is nearest; the changed parts are
+  // refitted from their models, and the round is kept only if the total distortion (sum of point
+  // distances) drops.
   auto total_distortion = [&](const std::vector<SuperquadricPart>& ps) {
     double sum = 0.0;
     for (const auto& p : ps) {
@@ -410,9 +410,9 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
       std::sort(assigned[k].begin(), assigned[k].end());
       if (assigned[k].empty()) continue;
       SuperquadricPart part;
-      part.fit = changed[k] ? fitter_.refine(subsample(gather(points, assigned[k]),
-                                                       params_.split_fit_points),
-                                             out[k].fit.sq, inner_iterations)
+      part.fit = changed[k] ? fitter_.refine(
+                                  subsample(gather(points, assigned[k]), params_.split_fit_points),
+                                  out[k].fit.sq, inner_iterations)
                             : out[k].fit;
       part.indices = std::move(assigned[k]);
       next.push_back(std::move(part));

@@ -98,7 +98,8 @@ namespace {
 double surfaceDistanceCanonical(const Superquadric& sq, const Eigen::Vector3d& q) {
   const double l = logF(sq, q);
   const double g = gradLogF(sq, q).norm();
-  const double d = std::abs(1.0 - std::exp(std::min(-0.5 * sq.e1 * l, kMaxLog))) / (0.5 * sq.e1 * g);
+  const double d =
+      std::abs(1.0 - std::exp(std::min(-0.5 * sq.e1 * l, kMaxLog))) / (0.5 * sq.e1 * g);
   return std::isfinite(d) ? d : radialDistanceCanonical(sq, q);
 }
 }  // namespace
@@ -185,8 +186,7 @@ TriangleMesh triangleMesh(const Superquadric& sq, int resolution) {
       };
       for (int s = 0; s < n; ++s) {
         for (int t = 0; t < n; ++t) {
-          const int v00 = at(s, t), v10 = at(s + 1, t), v11 = at(s + 1, t + 1),
-                    v01 = at(s, t + 1);
+          const int v00 = at(s, t), v10 = at(s + 1, t), v11 = at(s + 1, t + 1), v01 = at(s, t + 1);
           // (s, t) -> (s+1, t) -> (s+1, t+1) is counter-clockwise seen from +e_axis.
           if (sign > 0) {
             mesh.triangles.emplace_back(v00, v10, v11);

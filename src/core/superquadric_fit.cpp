@@ -176,9 +176,8 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   const Eigen::Vector3d wv(w[0], w[1], w[2]);
   const Eigen::Vector3d tv(t[0], t[1], t[2]);
   const double angle = wv.norm();
-  const Eigen::Matrix3d dr =
-      angle > 0.0 ? Eigen::AngleAxisd(angle, wv / angle).toRotationMatrix()
-                  : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d dr = angle > 0.0 ? Eigen::AngleAxisd(angle, wv / angle).toRotationMatrix()
+                                         : Eigen::Matrix3d::Identity();
   const Eigen::Vector3d av(a[0], a[1], a[2]);
   if (av.allFinite() && std::isfinite(e[0]) && std::isfinite(e[1]) && wv.allFinite() &&
       tv.allFinite()) {

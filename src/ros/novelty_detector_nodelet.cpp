@@ -121,12 +121,11 @@ void NoveltyDetectorNodelet::onInit() {
     paramsToConfigMsg(params_, msg);
     initial.__fromMessage__(msg);
     initial.__toServer__(tuning_nh);
-    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<DetectorConfig>>(
-        reconfigure_mutex_, tuning_nh);
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<DetectorConfig>>(reconfigure_mutex_,
+                                                                                 tuning_nh);
   }
-  reconfigure_->setCallback([this](DetectorConfig& config, uint32_t level) {
-    onReconfigure(config, level);
-  });
+  reconfigure_->setCallback(
+      [this](DetectorConfig& config, uint32_t level) { onReconfigure(config, level); });
 
   // The worker loads the reference file (possibly large) so that onInit never blocks.
   worker_ = std::thread(&NoveltyDetectorNodelet::workerLoop, this);

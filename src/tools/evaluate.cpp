@@ -161,8 +161,8 @@ int evaluateSuite(const Options& o) {
         const fs::path sq_path = fs::path(o.results) / name / "superquadrics.json";
         const fs::path cur_path = fs::path(o.suite) / name / "cur.pcd";
         if (fs::exists(sq_path) && fs::exists(cur_path)) {
-          const ShapeScore shape =
-              scoreShapes(loadCloud(cur_path.string()), gt, e.score, readSuperquadricsJson(sq_path));
+          const ShapeScore shape = scoreShapes(loadCloud(cur_path.string()), gt, e.score,
+                                               readSuperquadricsJson(sq_path));
           shape_objects += shape.objects;
           shape_sum_m += shape.mean_surface_distance_m * shape.objects;
           if (shape.objects > 0) shape_json[name] = shape.mean_surface_distance_m;
@@ -194,23 +194,23 @@ int evaluateSuite(const Options& o) {
   if (!o.markdown.empty()) writeText(o.markdown, md);
   if (!o.csv.empty()) writeText(o.csv, suiteCsv(entries));
   if (!o.json.empty()) {
-    const nlohmann::json j = {{"scenes", scenes},
-                              {"summary",
-                               {{"scenes", m.scenes},
-                                {"successes", m.successes},
-                                {"missing", m.missing},
-                                {"success_rate", m.success_rate},
-                                {"mean_precision", m.mean_precision},
-                                {"mean_recall", m.mean_recall},
-                                {"mean_f1", m.mean_f1},
-                                {"mean_iou", m.mean_iou},
-                                {"objects_found", m.objects_found},
-                                {"objects_total", m.objects_total},
-                                {"false_segments", m.false_segments},
-                                {"shape_objects", shape_objects},
-                                {"mean_shape_error_m",
-                                 shape_objects > 0 ? shape_sum_m / shape_objects : 0.0},
-                                {"shape_error_m_per_scene", shape_json}}}};
+    const nlohmann::json j = {
+        {"scenes", scenes},
+        {"summary",
+         {{"scenes", m.scenes},
+          {"successes", m.successes},
+          {"missing", m.missing},
+          {"success_rate", m.success_rate},
+          {"mean_precision", m.mean_precision},
+          {"mean_recall", m.mean_recall},
+          {"mean_f1", m.mean_f1},
+          {"mean_iou", m.mean_iou},
+          {"objects_found", m.objects_found},
+          {"objects_total", m.objects_total},
+          {"false_segments", m.false_segments},
+          {"shape_objects", shape_objects},
+          {"mean_shape_error_m", shape_objects > 0 ? shape_sum_m / shape_objects : 0.0},
+          {"shape_error_m_per_scene", shape_json}}}};
     writeText(o.json, j.dump(2) + "\n");
   }
   return 0;

@@ -72,7 +72,10 @@ TEST(CloudIo, FuzzFindingsStayFixed) {
   // Every file kept under test/fuzz/corpus/cloud_file: its first byte picks the extension
   // (odd: .ply), the rest is the file. Each must load or fail with runtime_error.
   const std::string dir = std::string(NOVELTY_SOURCE_DIR) + "/test/fuzz/corpus/cloud_file/";
-  for (const char* name : {"regression_float_size2", "regression_duplicate_fields", "regression_ply_negative_count", "regression_blank_header_lines", "regression_binary_in_ascii_body", "regression_ascii_token_count", "pcd_ascii", "pcd_binary", "ply_ascii"}) {
+  for (const char* name :
+       {"regression_float_size2", "regression_duplicate_fields", "regression_ply_negative_count",
+        "regression_blank_header_lines", "regression_binary_in_ascii_body",
+        "regression_ascii_token_count", "pcd_ascii", "pcd_binary", "ply_ascii"}) {
     std::ifstream in(dir + name, std::ios::binary);
     ASSERT_TRUE(in.good()) << name;
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -46,7 +46,8 @@ TEST(Params, DoublesAreWrittenAsYaml11Floats) {
 
 TEST(Params, YamlOverridesAndRoundTrips) {
   Params p;
-  novelty_detection::loadParamsYamlString("gmm:\n  max_components: 12\nselection:\n  u_th: 0.5\n", p);
+  novelty_detection::loadParamsYamlString("gmm:\n  max_components: 12\nselection:\n  u_th: 0.5\n",
+                                          p);
   EXPECT_EQ(p.gmm.max_components, 12);
   EXPECT_DOUBLE_EQ(p.selection.u_th, 0.5);
   EXPECT_EQ(p.preprocess.outlier_k, Params().preprocess.outlier_k);

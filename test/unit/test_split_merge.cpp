@@ -35,7 +35,8 @@ Points3d compositeSamples(std::vector<Superquadric>& parts, int per_part, unsign
     }
   }
   std::normal_distribution<double> noise(0.0, kSigma);
-  for (auto& p : out) p = r * p + pose.position + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  for (auto& p : out)
+    p = r * p + pose.position + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   for (auto& part : parts) {
     part.position = r * part.position + pose.position;
     part.euler = eulerZyzFromRotation(r * part.rotation());
@@ -67,12 +68,14 @@ TEST(SplitMerge, LShapeOfTwoBoxesBecomesTwoParts) {
   for (unsigned seed : {1u, 2u}) {
     // A post standing on one end of a bar: an L whose decomposition into two boxes is
     // unique (the corner belongs to the bar).
-    std::vector<Superquadric> truth = {makeSq({0.10, 0.10, 0.50}, 0.1, 0.1, {0, 0, 0}, {0, 0, 0.7}),
-                                       makeSq({0.50, 0.10, 0.10}, 0.1, 0.1, {0, 0, 0}, {0.4, 0, 0.1})};
+    std::vector<Superquadric> truth = {
+        makeSq({0.10, 0.10, 0.50}, 0.1, 0.1, {0, 0, 0}, {0, 0, 0.7}),
+        makeSq({0.50, 0.10, 0.10}, 0.1, 0.1, {0, 0, 0}, {0.4, 0, 0.1})};
     const Points3d pts = compositeSamples(truth, 1200, seed);
     const SplitMerge sm{SuperquadricParams()};
     const auto parts = sm.run(pts);
-    ASSERT_EQ(parts.size(), 2u) << "seed " << seed << " leaves " << sm.stats().leaves << " noise " << sm.stats().noise_m;
+    ASSERT_EQ(parts.size(), 2u) << "seed " << seed << " leaves " << sm.stats().leaves << " noise "
+                                << sm.stats().noise_m;
     int a = -1, b = -1;
     // Each box is recovered by its own part: most of its true surface lies within 1 cm
     // (about 3 sigma) of that part's surface (the junction may go to either part).
@@ -107,8 +110,8 @@ TEST(SplitMerge, MemoizedMergeEqualsRecomputingEverything) {
   // A person-like composite: trunk, head, two legs, two arms; forced down to 3 parts so
   // that several merges happen.
   std::vector<Superquadric> truth = {
-      makeSq({0.18, 0.10, 0.28}, 0.3, 0.3, {0, 0, 0}, {0, 0, 1.2}),    // trunk
-      makeSq({0.09, 0.09, 0.11}, 1.0, 1.0, {0, 0, 0}, {0, 0, 1.6}),    // head
+      makeSq({0.18, 0.10, 0.28}, 0.3, 0.3, {0, 0, 0}, {0, 0, 1.2}),       // trunk
+      makeSq({0.09, 0.09, 0.11}, 1.0, 1.0, {0, 0, 0}, {0, 0, 1.6}),       // head
       makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {-0.09, 0, 0.45}),  // legs
       makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {0.09, 0, 0.45}),
       makeSq({0.05, 0.05, 0.30}, 0.2, 1.0, {0, 0, 0}, {-0.25, 0, 1.15}),  // arms
@@ -168,8 +171,8 @@ TEST(ShapeRetrieval, DegenerateSegmentsGiveFiniteSuperquadrics) {
   Points3d line, plane;
   for (int i = 0; i < 200; ++i) line.emplace_back(0.01 * i, 0.5, 1.0);
   for (int i = 0; i < 400; ++i) plane.emplace_back(0.02 * (i % 20), 0.02 * (i / 20), 0.3);
-  const std::vector<Points3d> segments = {{Eigen::Vector3d(1, 2, 3)},
-                                          Points3d(50, Eigen::Vector3d(1, 1, 1)), line, plane};
+  const std::vector<Points3d> segments = {
+      {Eigen::Vector3d(1, 2, 3)}, Points3d(50, Eigen::Vector3d(1, 1, 1)), line, plane};
   for (const auto& fine : segments) {
     const auto sqs = retrieval.recover(fine, {}, 4);
     ASSERT_FALSE(sqs.empty());

@@ -53,8 +53,9 @@ TEST(Superquadric, KnownValuesOfEquationTwo) {
   EXPECT_NEAR(insideOutside(sq, {0.0, 2.0, 0.0}), 1.0, 1e-9);
   EXPECT_NEAR(insideOutside(sq, {0.0, 0.0, 3.0}), 1.0, 1e-9);
   const double x = 0.4, y = 0.6, z = 1.2;
-  const double f = std::pow(std::pow(x / 1.0, 2.0 / 1.5) + std::pow(y / 2.0, 2.0 / 1.5), 1.5 / 0.5) +
-                   std::pow(z / 3.0, 2.0 / 0.5);
+  const double f =
+      std::pow(std::pow(x / 1.0, 2.0 / 1.5) + std::pow(y / 2.0, 2.0 / 1.5), 1.5 / 0.5) +
+      std::pow(z / 3.0, 2.0 / 0.5);
   EXPECT_NEAR(insideOutside(sq, {x, -y, -z}), f, 1e-12);
   // Eq. 3's residual at that point.
   EXPECT_NEAR(fitResidual(sq, {x, y, z}), std::sqrt(6.0) * (std::pow(f, 0.5) - 1.0), 1e-12);
@@ -62,9 +63,12 @@ TEST(Superquadric, KnownValuesOfEquationTwo) {
 
 TEST(Superquadric, GuardedPowersStayFinite) {
   const Superquadric sq = makeSq({0.2, 0.3, 0.4}, 0.1, 1.9, {0.3, 1.0, -0.4}, {1, 2, 3});
-  const std::vector<Eigen::Vector3d> pts = {
-      sq.position, toWorld(sq, {0.2, 0, 0}), toWorld(sq, {0, 0, -0.4}), toWorld(sq, {0, 1e-200, 0}),
-      toWorld(sq, {1e6, -1e6, 1e6}), toWorld(sq, {0, 0, 1e100})};
+  const std::vector<Eigen::Vector3d> pts = {sq.position,
+                                            toWorld(sq, {0.2, 0, 0}),
+                                            toWorld(sq, {0, 0, -0.4}),
+                                            toWorld(sq, {0, 1e-200, 0}),
+                                            toWorld(sq, {1e6, -1e6, 1e6}),
+                                            toWorld(sq, {0, 0, 1e100})};
   for (const auto& p : pts) {
     EXPECT_TRUE(std::isfinite(insideOutside(sq, p))) << p.transpose();
     EXPECT_TRUE(std::isfinite(logInsideOutside(sq, p)));
@@ -199,5 +203,6 @@ TEST(Superquadric, SurfaceDistanceIsEuclideanToFirstOrder) {
   EXPECT_NEAR(surfaceDistance(slab, p), 0.01, 0.002);
   EXPECT_GT(radialDistance(slab, p), 0.025);
   EXPECT_TRUE(std::isfinite(surfaceDistance(slab, slab.position)));
-  for (const auto& q : sampleSurfaceRandom(slab, 100, 4u)) EXPECT_NEAR(surfaceDistance(slab, q), 0.0, 1e-9);
+  for (const auto& q : sampleSurfaceRandom(slab, 100, 4u))
+    EXPECT_NEAR(surfaceDistance(slab, q), 0.0, 1e-9);
 }

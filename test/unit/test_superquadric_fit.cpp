@@ -117,7 +117,8 @@ TEST(SuperquadricFit, RobustLossToleratesOutliers) {
   Points3d pts = samples::noisySamples(truth, 500, kSigma, 5u);
   std::mt19937 rng(6);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < 25; ++i) pts.push_back(truth.position + Eigen::Vector3d(u(rng), u(rng), u(rng)));
+  for (int i = 0; i < 25; ++i)
+    pts.push_back(truth.position + Eigen::Vector3d(u(rng), u(rng), u(rng)));
   const FitResult r = fitter.fit(pts);
   EXPECT_LT(samples::surfaceError(truth, r.sq), 2.0 * kSigma);
 }
@@ -127,10 +128,18 @@ TEST(SuperquadricFit, DegenerateInputsGiveFiniteFitsOrClearErrors) {
   EXPECT_THROW(fitter.fit({}), std::invalid_argument);
   EXPECT_THROW(fitter.fit({Eigen::Vector3d(0, 0, NAN)}), std::invalid_argument);
   const std::vector<Points3d> degenerate = {
-      {Eigen::Vector3d(1, 2, 3)},                                          // one point
-      Points3d(30, Eigen::Vector3d(1, 1, 1)),                              // duplicates
-      [] { Points3d p; for (int i = 0; i < 30; ++i) p.emplace_back(0.01 * i, 0, 0); return p; }(),
-      [] { Points3d p; for (int i = 0; i < 100; ++i) p.emplace_back(0.01 * (i % 10), 0.01 * (i / 10), 0); return p; }(),
+      {Eigen::Vector3d(1, 2, 3)},              // one point
+      Points3d(30, Eigen::Vector3d(1, 1, 1)),  // duplicates
+      [] {
+        Points3d p;
+        for (int i = 0; i < 30; ++i) p.emplace_back(0.01 * i, 0, 0);
+        return p;
+      }(),
+      [] {
+        Points3d p;
+        for (int i = 0; i < 100; ++i) p.emplace_back(0.01 * (i % 10), 0.01 * (i / 10), 0);
+        return p;
+      }(),
   };
   for (const auto& pts : degenerate) {
     const FitResult r = fitter.fit(pts);
