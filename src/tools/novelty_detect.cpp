@@ -152,15 +152,10 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
 int run(const Args& args) {
   nd::Params params;
   if (!args.config.empty()) nd::loadParamsYaml(args.config, params);
-  // The reference viewpoint (PCD VIEWPOINT) feeds the pipeline's free-space check.
-  auto load = [](const std::string& path) {
-    nd::CloudFile file = nd::loadCloudFile(path);
-    file.cloud.sensor_origin_.head<3>() = file.T_frame_sensor.translation().cast<float>();
-    file.cloud.sensor_orientation_ = Eigen::Quaternionf(file.T_frame_sensor.linear().cast<float>());
-    return file.cloud;
-  };
-  const nd::Cloud reference = load(args.reference);
-  const nd::Cloud current = load(args.current);
+  // loadCloud keeps the PCD VIEWPOINT as the cloud's sensor origin, which feeds the
+  // pipeline's free-space check.
+  const nd::Cloud reference = nd::loadCloud(args.reference);
+  const nd::Cloud current = nd::loadCloud(args.current);
   std::filesystem::create_directories(args.out);
 
   using Clock = std::chrono::steady_clock;
