@@ -20,7 +20,8 @@ build_target() {  # name, sources...
   clang++ "${CXXFLAGS[@]}" "$@" -o "$BIN/$name" -lpcl_io -lpcl_common \
     -lboost_system -lboost_filesystem
 }
-build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/core/cloud_io.cpp"
+build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/core/cloud_io.cpp" \
+  "$REPO/src/core/detail/pcd_reader.cpp"
 # Message headers are header-only; rostime/roscpp_serialization hold the few out-of-line bits.
 build_target fuzz_pointcloud2 "$REPO/test/fuzz/fuzz_pointcloud2.cpp" "$REPO/src/ros/conversions.cpp" \
   -lroscpp_serialization -lrostime
