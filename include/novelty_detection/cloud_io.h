@@ -16,9 +16,9 @@ struct CloudFile {
 /// Loads a .pcd or .ply file with at least float x, y, z fields (other fields ignored,
 /// NaN points kept so indices match the file, WIDTH x HEIGHT kept). PCD files (ascii,
 /// binary, binary_compressed) go through a strict reader of our own that checks every
-/// byte against the header; PLY headers are checked before PCL's reader sees them. Throws std::runtime_error with a one-line
-/// message naming the file and the problem (missing, unreadable, truncated, no x/y/z,
-/// unknown extension).
+/// byte against the header; PLY headers are checked before PCL's reader sees them. Throws
+/// std::runtime_error with a one-line message naming the file and the problem (missing, unreadable,
+/// truncated, no x/y/z, unknown extension).
 CloudFile loadCloudFile(const std::string& path);
 Cloud loadCloud(const std::string& path);
 

@@ -72,4 +72,9 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
 std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
                                     int min_points, double* link_radius_m = nullptr);
 
+/// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
+/// its first occurrence, and adds it to that segment's indices (kept ascending).
+void labelDuplicates(const Indices& duplicates, const Indices& duplicate_of,
+                     std::vector<int>& labels, std::vector<Segment>& segments);
+
 }  // namespace novelty_detection

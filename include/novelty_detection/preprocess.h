@@ -18,7 +18,11 @@ struct GroundPlane {
 };
 
 struct PreprocessResult {
-  Indices finite;    ///< input indices of finite points
+  Indices finite;  ///< input indices of finite points
+  /// Finite points equal to an earlier point (x, y, z bit for bit), left out of every later
+  /// step: repeated returns carry no information but would double a surface's density.
+  /// duplicate_of[k] is the first occurrence of duplicates[k]; both ascending in duplicates.
+  Indices duplicates, duplicate_of;
   Indices outliers;  ///< input indices removed as sparse outliers
   GroundPlane ground;
   Indices kept;  ///< input indices surviving every step, ascending
@@ -26,6 +30,11 @@ struct PreprocessResult {
 
 /// Input indices of the points whose x, y, z are all finite.
 Indices finiteIndices(const Cloud& cloud);
+
+/// Splits `indices` (ascending) into the first occurrence of each distinct point (returned,
+/// ascending) and the repeats (`duplicates`, with their first occurrence in `duplicate_of`).
+Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* duplicates,
+                         Indices* duplicate_of);
 
 /// Statistical outlier removal over `indices`: a point is an outlier when the mean distance
 /// to its k nearest neighbours exceeds mu + std_mul * sigma of those means. Returns the

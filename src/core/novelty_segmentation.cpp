@@ -164,4 +164,19 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
   return out;
 }
 
+void labelDuplicates(const Indices& duplicates, const Indices& duplicate_of,
+                     std::vector<int>& labels, std::vector<Segment>& segments) {
+  bool any = false;
+  for (std::size_t k = 0; k < duplicates.size(); ++k) {
+    const int id = labels.at(duplicate_of[k]);
+    labels.at(duplicates[k]) = id;
+    if (id <= 0) continue;
+    for (Segment& seg : segments) {
+      if (seg.id == id) seg.indices.push_back(duplicates[k]), any = true;
+    }
+  }
+  if (any)
+    for (Segment& seg : segments) std::sort(seg.indices.begin(), seg.indices.end());
+}
+
 }  // namespace novelty_detection

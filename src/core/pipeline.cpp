@@ -79,8 +79,8 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
   s.pre = Preprocessor(params.preprocess).compute(cloud);
   if (result) {
     result->point_counts.emplace_back("finite", s.pre.finite.size());
-    result->point_counts.emplace_back("after_outliers",
-                                      s.pre.finite.size() - s.pre.outliers.size());
+    result->point_counts.emplace_back(
+        "after_outliers", s.pre.finite.size() - s.pre.duplicates.size() - s.pre.outliers.size());
     result->point_counts.emplace_back("after_ground", s.pre.kept.size());
   }
   if (timer) timer->lap("preprocess");
@@ -366,6 +366,7 @@ Result Pipeline::detect(const Cloud& current) const {
     }
     result.segments.push_back(std::move(seg));
   }
+  labelDuplicates(s.pre.duplicates, s.pre.duplicate_of, result.labels, result.segments);
   result.point_counts.emplace_back(
       "labelled", novel_points.empty() ? 0 : [&] {
         std::size_t n = 0;

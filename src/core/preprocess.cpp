@@ -7,6 +7,8 @@
 #include <iterator>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 
 #include "detail/knn.h"
 
@@ -20,6 +22,39 @@ Indices finiteIndices(const Cloud& cloud) {
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) out.push_back(i);
   }
   return out;
+}
+
+Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* duplicates,
+                         Indices* duplicate_of) {
+  // Sort by coordinates (ties by index, so the first occurrence leads each run of equals).
+  Indices order = indices;
+  auto key = [&cloud](int i) { return std::make_tuple(cloud[i].x, cloud[i].y, cloud[i].z, i); };
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::vector<std::pair<int, int>> repeats;  // (duplicate, first occurrence)
+  for (std::size_t k = 1, first = 0; k < order.size(); ++k) {
+    const PointT& a = cloud[order[first]];
+    const PointT& b = cloud[order[k]];
+    if (a.x == b.x && a.y == b.y && a.z == b.z)
+      repeats.emplace_back(order[k], order[first]);
+    else
+      first = k;
+  }
+  std::sort(repeats.begin(), repeats.end());
+  if (duplicates) duplicates->clear();
+  if (duplicate_of) duplicate_of->clear();
+  Indices unique;
+  unique.reserve(indices.size() - repeats.size());
+  std::size_t r = 0;
+  for (int i : indices) {
+    if (r < repeats.size() && repeats[r].first == i) {
+      if (duplicates) duplicates->push_back(i);
+      if (duplicate_of) duplicate_of->push_back(repeats[r].second);
+      ++r;
+    } else {
+      unique.push_back(i);
+    }
+  }
+  return unique;
 }
 
 namespace {
@@ -113,7 +148,8 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud,
   }
   PreprocessResult result;
   result.finite = finiteIndices(cloud);
-  Indices current = result.finite;
+  Indices current =
+      removeDuplicates(cloud, result.finite, &result.duplicates, &result.duplicate_of);
   if (params_.outlier_removal) {
     current = params_.outlier_range_scaled
                   ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,

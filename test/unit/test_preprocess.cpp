@@ -53,6 +53,25 @@ TEST(FiniteIndices, SkipsNanAndInfinity) {
   EXPECT_EQ(nd::finiteIndices(cloud), (nd::Indices{0, 2, 5}));
 }
 
+TEST(Preprocess, RepeatedPointsAreSetAsideWithTheirFirstOccurrence) {
+  nd::Cloud cloud;
+  cloud.push_back(nd::PointT(1, 2, 3));     // 0
+  cloud.push_back(nd::PointT(0, 0, 0));     // 1
+  cloud.push_back(nd::PointT(1, 2, 3));     // 2 repeats 0
+  cloud.push_back(nd::PointT(1, 2, 3.5f));  // 3
+  cloud.push_back(nd::PointT(-0.f, 0, 0));  // 4 repeats 1 (-0 == 0)
+  cloud.push_back(nd::PointT(1, 2, 3));     // 5 repeats 0
+  nd::Indices dup, of;
+  const nd::Indices unique = nd::removeDuplicates(cloud, nd::Indices{0, 1, 2, 3, 4, 5}, &dup, &of);
+  EXPECT_EQ(unique, (nd::Indices{0, 1, 3}));
+  EXPECT_EQ(dup, (nd::Indices{2, 4, 5}));
+  EXPECT_EQ(of, (nd::Indices{0, 1, 0}));
+  // Only the given indices are considered: without 0, point 2 is the first occurrence.
+  EXPECT_EQ(nd::removeDuplicates(cloud, nd::Indices{2, 3, 5}, &dup, &of), (nd::Indices{2, 3}));
+  EXPECT_EQ(dup, (nd::Indices{5}));
+  EXPECT_EQ(of, (nd::Indices{2}));
+}
+
 TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(0.f, 1.f);
