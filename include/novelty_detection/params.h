@@ -47,14 +47,14 @@ struct PreprocessParams {
     f("ground_max_iterations", ground_max_iterations, "RANSAC iterations for the ground plane");
     f("ground_noise_k", ground_noise_k,
       "ground inliers lie within max(ground_distance_m, ground_noise_k * sigma) of the plane, "
-      "sigma the floor's noise estimated robustly (MAD) from the data");
+      "sigma the floor's noise estimated robustly from the data (Gaussian plus uniform clutter)");
     f("ground_sample_points", ground_sample_points,
       "RANSAC scores plane hypotheses on a random subset of this many points");
     f("ground_min_fraction", ground_min_fraction,
       "no ground is removed unless the plane holds at least this fraction of the points");
     f("ground_lowest_support", ground_lowest_support,
       "of the near-horizontal planes holding at least this fraction of the best one's "
-      "support, the lowest is the ground (not a table top or the ceiling)");
+      "support, the one whose inliers lie lowest is the ground (not a table top or the ceiling)");
   }
   void validate() const;
 };
