@@ -147,6 +147,7 @@ struct SegmentationParams {
   double min_novelty_distance_m = 0.0;   ///< floor of tau [m]
   double link_factor = 2.5;              ///< link radius = factor * novel-point spacing
   double merge_gap_factor = 4.0;         ///< pieces of one Gaussian this close merge
+  double merge_floor_gap_factor = 2.0;   ///< ... and this close on the floor plane (x, y)
   int min_segment_points = 20;           ///< smaller segments are dropped
   double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
@@ -166,6 +167,10 @@ struct SegmentationParams {
     f("merge_gap_factor", merge_gap_factor,
       "connected pieces mostly owned by the same novel Gaussian merge into one segment when "
       "their bounding boxes are closer than merge_gap_factor link radii");
+    f("merge_floor_gap_factor", merge_floor_gap_factor,
+      "and only when their footprints on the floor (x, y) are closer than this many link "
+      "radii: the gaps between tilt lines on one object are vertical, while two objects side "
+      "by side are apart on the floor");
     f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
     f("map_likelihood_quantile", map_likelihood_quantile,
       "a point whose density under the reference mixture exceeds this quantile of the map's "

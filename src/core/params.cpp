@@ -64,6 +64,7 @@ void SegmentationParams::validate() const {
   requireRange("segmentation/min_novelty_distance_m", min_novelty_distance_m, 0.0, 100.0);
   requireRange("segmentation/link_factor", link_factor, 0.1, 100.0);
   requireRange("segmentation/merge_gap_factor", merge_gap_factor, 0.0, 1000.0);
+  requireRange("segmentation/merge_floor_gap_factor", merge_floor_gap_factor, 0.0, 1000.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
   requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
   requireRange("segmentation/visibility_angle_deg", visibility_angle_deg, 0.01, 45.0);

@@ -301,8 +301,10 @@ Result Pipeline::detect(const Cloud& current) const {
   }
   result.point_counts.emplace_back("novel_points", novel_points.size());
   // Connected pieces of novel points. Pieces whose points mostly belong to the same novel
-  // Gaussian and whose bounding boxes lie within merge_gap_factor link radii are one object
-  // seen through the gaps between tilt lines: merge them (union-find).
+  // Gaussian and whose bounding boxes lie within merge_gap_factor link radii (and their
+  // footprints on the floor within merge_floor_gap_factor) are one object seen through the
+  // gaps between tilt lines: merge them (union-find). Two objects side by side that share a
+  // Gaussian stay apart.
   double link_radius = 0.0;
   std::vector<Indices> pieces =
       linkComponents(current, novel_points, params_.segmentation.link_factor, 1, &link_radius);
@@ -327,12 +329,15 @@ Result Pipeline::detect(const Cloud& current) const {
     return a;
   };
   const float gap = static_cast<float>(params_.segmentation.merge_gap_factor * link_radius);
+  const float floor_gap =
+      static_cast<float>(params_.segmentation.merge_floor_gap_factor * link_radius);
   for (std::size_t a = 0; a < np; ++a) {
     for (std::size_t b = a + 1; b < np; ++b) {
       if (dominant[a] != dominant[b]) continue;
       const Eigen::Vector3f sep =
           (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
-      if (sep.norm() <= gap) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+      if (sep.norm() <= gap && sep.head<2>().norm() <= floor_gap)
+        parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
     }
   }
   std::vector<Indices> merged(np);
