@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "novelty_detection/baseline.h"
+#include "novelty_detection/cloud_io.h"
 #include "novelty_detection/evaluation.h"
 #include "novelty_detection/sim/scene.h"
 #include "novelty_detection/viewpoint_evaluation.h"
@@ -193,10 +194,11 @@ TEST(SimViewpoint, NewlyVisibleMaskOfAHandMadeWorld) {
       o + 2.0 * dir(0, 50),  // 50 deg down: outside
       o + 2.0 * Eigen::Vector3d(-0.3, 1, 0).normalized(),  // back half, seen at azimuth 107
       o + 0.05 * Eigen::Vector3d::UnitX(),                 // closer than min range
+      o + 3.0 * Eigen::Vector3d::UnitY(),  // along the tilt axis: every line reaches it
   };
-  const std::vector<int> labels = {0, 0, 2, 0, 0, 0, 0, 0, 0};
+  const std::vector<int> labels = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0};
   const std::vector<std::uint8_t> mask = newlyVisibleMask(w, T, laser, pts, labels);
-  EXPECT_EQ(mask, (std::vector<std::uint8_t>{1, 0, 0, 1, 1, 0, 1, 0, 1}));
+  EXPECT_EQ(mask, (std::vector<std::uint8_t>{1, 0, 0, 1, 1, 0, 1, 0, 1, 0}));
   EXPECT_THROW(newlyVisibleMask(w, T, laser, pts, {0}), std::invalid_argument);
 }
 
@@ -351,4 +353,70 @@ TEST(SimViewpoint, GroupScoresCountDisappearancesAndNewlyVisible) {
   const std::string md = groupsMarkdown(g);
   EXPECT_NE(md.find("| pose_offset | 1 |"), std::string::npos);
   EXPECT_NE(md.find("without disappeared_labels.txt"), std::string::npos);
+}
+
+namespace {
+int runQuiet(const std::string& cmd) {
+  const int rc = std::system((cmd + " > /dev/null 2>&1").c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+std::size_t lineCount(const fs::path& p) {
+  std::ifstream f(p);
+  std::size_t n = 0;
+  std::string line;
+  while (std::getline(f, line)) ++n;
+  return n;
+}
+}  // namespace
+
+TEST(SimViewpoint, ToolsWriteTheViewpointSuiteAndScoreItPerGroup) {
+  const std::string bin = NOVELTY_BIN_DIR;
+  const fs::path root = fs::path(::testing::TempDir()) / "novelty_viewpoint_tools";
+  fs::remove_all(root);
+  const fs::path suite = root / "suite", ours = root / "ours", base = root / "base";
+  ASSERT_EQ(runQuiet(bin + "/simulate_scans --out " + suite.string() +
+                     " --suite 6 --suite-kind viewpoint --lines 10 --no-bag"),
+            0);
+  for (int i = 0; i < 6; ++i) {
+    const fs::path d = suite / ("scene_00" + std::to_string(i));
+    const CloudFile ref = loadCloudFile((d / "ref.pcd").string());
+    const CloudFile cur = loadCloudFile((d / "cur.pcd").string());
+    EXPECT_EQ(lineCount(d / "gt_disappeared_labels.txt"), ref.cloud.size());
+    EXPECT_EQ(lineCount(d / "gt_newly_visible.txt"), cur.cloud.size());
+    std::ifstream f(d / "scene.json");
+    std::stringstream ss;
+    ss << f.rdbuf();
+    const char* group = i % 3 == 0   ? "same_pose"
+                        : i % 3 == 1 ? "pose_offset"
+                                     : "localisation_error";
+    EXPECT_NE(ss.str().find(std::string("\"group\": \"") + group + "\""), std::string::npos);
+    EXPECT_NE(ss.str().find("\"T_error\""), std::string::npos);
+    // Baseline with the detector's contract: one label per point of each cloud.
+    const fs::path out = base / d.filename();
+    ASSERT_EQ(runQuiet(bin + "/baseline_detect --reference " + (d / "ref.pcd").string() +
+                       " --current " + (d / "cur.pcd").string() + " --out " + out.string()),
+              0);
+    EXPECT_EQ(lineCount(out / "labels.txt"), cur.cloud.size());
+    EXPECT_EQ(lineCount(out / "disappeared_labels.txt"), ref.cloud.size());
+    // "Perfect" appearance labels without disappearance files.
+    fs::create_directories(ours / d.filename());
+    fs::copy_file(d / "gt_labels.txt", ours / d.filename() / "labels.txt");
+  }
+  EXPECT_TRUE(fs::exists(suite / "scene_003" / "scene.json"));
+  ASSERT_EQ(runQuiet(bin + "/evaluate --suite " + suite.string() + " --results " + ours.string() +
+                     " --json " + (root / "ours.json").string()),
+            0);
+  std::ifstream f(root / "ours.json");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string j = ss.str();
+  EXPECT_NE(j.find("\"groups\""), std::string::npos);
+  EXPECT_NE(j.find("\"group\": \"localisation_error\""), std::string::npos);
+  // Scenes 3-5 have a removed object; without disappeared_labels.txt none is found.
+  EXPECT_NE(j.find("\"removal_scenes_without_result\": 3"), std::string::npos);
+  ASSERT_EQ(runQuiet(bin + "/evaluate --suite " + suite.string() + " --results " + base.string()),
+            0);
+  EXPECT_EQ(runQuiet(bin + "/baseline_detect --reference x.pcd"), 2);
+  EXPECT_EQ(runQuiet(bin + "/simulate_scans --out " + root.string() + " --suite-kind viewpoint"),
+            2);
 }

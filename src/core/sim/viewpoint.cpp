@@ -67,6 +67,9 @@ std::vector<std::uint8_t> newlyVisibleMask(const World& reference_world,
   auto inFieldOfView = [&](const Eigen::Vector3d& v) {
     const double n = v.norm();
     const double a = std::asin(std::clamp(v.y() / n, -1.0, 1.0));
+    // Along the tilt axis every tilt reaches the direction (and atan2 of two round-off
+    // residues would pick an arbitrary one).
+    if (std::hypot(v.x(), v.z()) <= 1e-9 * n) return std::abs(a) <= half_fov + kAngleTol;
     const double t_front = std::atan2(-v.z(), v.x());
     if (std::abs(a) <= half_fov + kAngleTol && t_front >= tilt_lo && t_front <= tilt_hi)
       return true;
