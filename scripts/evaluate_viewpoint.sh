@@ -7,7 +7,8 @@
 #
 #   bash scripts/evaluate_viewpoint.sh [--no-readme] [N=36] [OUT_DIR=out/viewpoint]
 #
-# Writes OUT_DIR/scenes (simulated; reused when size, seed and kind match),
+# Writes OUT_DIR/scenes (simulated; reused when size, seed and kind match and simulate_scans
+# is older),
 # OUT_DIR/{ours,baseline}/scene_XXX (outputs and logs), OUT_DIR/{ours,baseline}.json and .md
 # (evaluate), OUT_DIR/viewpoint.md and bench/results/viewpoint.md (the table).
 # NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SKIP_BUILD=1 skips the build.
@@ -30,7 +31,8 @@ for tool in simulate_scans novelty_detect baseline_detect evaluate; do
 done
 
 start=$(date +%s)
-if [ -f "$SUITE/suite.json" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&
+# Reuse a suite simulated before with the same size, seed and kind by the same simulator.
+if [ -f "$SUITE/suite.json" ] && [ "$SUITE/suite.json" -nt "$BIN/simulate_scans" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&
   grep -Eq "\"suite_seed\": $SEED,?$" "$SUITE/suite.json" &&
   grep -Eq "\"kind\": \"viewpoint\",?$" "$SUITE/suite.json"; then
   log "reusing the simulated suite in $SUITE"
