@@ -420,3 +420,23 @@ TEST(SimViewpoint, ToolsWriteTheViewpointSuiteAndScoreItPerGroup) {
   EXPECT_EQ(runQuiet(bin + "/simulate_scans --out " + root.string() + " --suite-kind viewpoint"),
             2);
 }
+
+TEST(SimViewpoint, BaselineOptionsFromYaml) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "novelty_baseline_yaml";
+  fs::create_directories(dir);
+  std::ofstream(dir / "ok.yaml") << "baseline:\n  resolution_m: 0.2\n  min_cluster_size: 5\n";
+  const BaselineOptions o = loadBaselineOptions((dir / "ok.yaml").string());
+  EXPECT_DOUBLE_EQ(o.resolution_m, 0.2);
+  EXPECT_EQ(o.min_cluster_size, 5);
+  EXPECT_DOUBLE_EQ(o.cluster_tolerance_factor, BaselineOptions{}.cluster_tolerance_factor);
+  std::ofstream(dir / "type.yaml") << "min_cluster_size: many\n";
+  std::ofstream(dir / "range.yaml") << "resolution_factor: -1\n";
+  for (const char* f : {"type.yaml", "range.yaml", "missing.yaml"}) {
+    try {
+      loadBaselineOptions((dir / f).string());
+      ADD_FAILURE() << f << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+    }
+  }
+}
