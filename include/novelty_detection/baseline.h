@@ -21,7 +21,7 @@ struct BaselineOptions {
   /// of the reference cloud (the voxels then scale with the sensor's sampling). The
   /// defaults (10x, 2x, 30) were chosen on six same-pose simulated scenes (seeds 2-7, a box
   /// and a person each), not on the viewpoint suite: the voxel must exceed the range noise
-  /// and the clusters must bridge the tilt lines (about 0.3 m voxels at 3 cm spacing).
+  /// and the clusters must bridge the tilt lines (0.12-0.20 m voxels on the viewpoint suite).
   double resolution_m = 0.0;
   double resolution_factor = 10.0;
   /// Euclidean clustering distance as a multiple of the voxel edge: points in touching
