@@ -3,6 +3,9 @@
 //   evaluate --labels labels.txt --gt gt_labels.txt [--json out.json]
 //   evaluate --suite SUITE_DIR --results RESULTS_DIR [--markdown table.md] [--csv table.csv]
 //            [--json out.json]
+//
+// For suites whose scenes carry a group and disappearance / newly-visible ground truth
+// (simulate_scans), the suite mode also scores per scene group (viewpoint_evaluation.h).
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -19,6 +22,7 @@
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/evaluation.h"
 #include "novelty_detection/shape_evaluation.h"
+#include "novelty_detection/viewpoint_evaluation.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -142,6 +146,7 @@ int evaluateSuite(const Options& o) {
     throw std::runtime_error(o.suite + ": no scene_*/gt_labels.txt (run simulate_scans --suite)");
 
   std::vector<SuiteEntry> entries;
+  std::vector<ViewpointSceneScore> viewpoint;
   nlohmann::json scenes = nlohmann::json::array();
   int shape_objects = 0;
   double shape_sum_m = 0.0;
@@ -178,6 +183,22 @@ int evaluateSuite(const Options& o) {
     j["scene"] = name;
     j["has_result"] = e.has_result;
     j["note"] = e.note;
+    const ViewpointSceneScore v =
+        scoreViewpointScene(name, (fs::path(o.suite) / name).string(),
+                            (fs::path(o.results) / name).string(), e.score, e.has_result);
+    j["group"] = v.group;
+    j["removed_objects"] = v.removed_ids;
+    j["removed_found"] = v.removed_found;
+    j["has_disappeared"] = v.has_disappeared;
+    j["disappeared_note"] = v.disappeared_note;
+    j["disappearance"] = {{"precision", v.disappearance.precision},
+                          {"recall", v.disappearance.recall},
+                          {"f1", v.disappearance.f1},
+                          {"objects", toJson(v.disappearance)["objects"]}};
+    j["newly_visible_points"] = v.newly_visible_points;
+    j["newly_visible_novel"] = v.newly_visible_novel;
+    j["newly_visible_reported"] = v.newly_visible_reported;
+    viewpoint.push_back(v);
     scenes.push_back(j);
     entries.push_back(e);
   }
@@ -190,12 +211,41 @@ int evaluateSuite(const Options& o) {
          << shape_objects << " found objects to their segment's superquadrics.\n";
     md += line.str();
   }
+  const std::vector<GroupSummary> groups = summarizeGroups(viewpoint);
+  int missing_disappeared = 0;
+  for (const auto& v : viewpoint)
+    missing_disappeared += !v.removed_ids.empty() && !v.has_disappeared;
+  if (missing_disappeared > 0)
+    std::cerr << "evaluate: " << missing_disappeared
+              << " removal scene(s) without a readable disappeared_labels.txt: their "
+                 "disappearances count as not found\n";
+  md +=
+      "\nPer scene group (disappearances: removal scenes whose removed objects were all "
+      "found; newly visible: ground-truth newly visible points labelled novel):\n\n" +
+      groupsMarkdown(groups);
   std::cout << md;
   if (!o.markdown.empty()) writeText(o.markdown, md);
+  nlohmann::json groups_json = nlohmann::json::array();
+  for (const auto& g : groups)
+    groups_json.push_back({{"group", g.group},
+                           {"scenes", g.scenes},
+                           {"successes", g.successes},
+                           {"success_rate", g.scenes ? double(g.successes) / g.scenes : 0.0},
+                           {"appearance_scenes", g.appearance_scenes},
+                           {"mean_f1", g.mean_f1},
+                           {"removal_scenes", g.removal_scenes},
+                           {"removal_scenes_found", g.removal_scenes_found},
+                           {"removal_scenes_without_result", g.removal_scenes_without_result},
+                           {"removed_objects", g.removed_objects},
+                           {"removed_found", g.removed_found},
+                           {"newly_visible_points", g.newly_visible_points},
+                           {"newly_visible_novel", g.newly_visible_novel},
+                           {"newly_visible_novel_fraction", g.newly_visible_novel_fraction}});
   if (!o.csv.empty()) writeText(o.csv, suiteCsv(entries));
   if (!o.json.empty()) {
     const nlohmann::json j = {
         {"scenes", scenes},
+        {"groups", groups_json},
         {"summary",
          {{"scenes", m.scenes},
           {"successes", m.successes},

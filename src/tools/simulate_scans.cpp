@@ -3,7 +3,9 @@
 //
 //   simulate_scans --out DIR [--seed S] [--layout corridor|office] [--lines N]
 //                  [--noise-var V] [--offset DX DY DYAW_DEG] [--novelties K]
-//                  [--kinds box,person,...] [--suite [N]] [--no-bag]
+//                  [--loc-error X Y Z ROLL_DEG PITCH_DEG YAW_DEG]
+//                  [--kinds box,person,...] [--suite [N]] [--suite-kind default|viewpoint]
+//                  [--no-bag]
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/LaserScan.h>
@@ -35,8 +37,10 @@ constexpr double kDeg = M_PI / 180.0;
 const char* kUsage =
     "usage: simulate_scans --out DIR [--seed S] [--layout corridor|office] [--lines N]\n"
     "                      [--noise-var V] [--offset DX DY DYAW_DEG] [--novelties K]\n"
-    "                      [--kinds box,cylinder,sphere,superellipsoid,person,moved_object,door]\n"
-    "                      [--suite [N]] [--no-bag]\n";
+    "                      [--loc-error X Y Z ROLL_DEG PITCH_DEG YAW_DEG]\n"
+    "                      [--kinds box,cylinder,sphere,superellipsoid,person,moved_object,door,\n"
+    "                               removed_object]\n"
+    "                      [--suite [N]] [--suite-kind default|viewpoint] [--no-bag]\n";
 
 struct Options {
   std::string out;
@@ -44,6 +48,8 @@ struct Options {
   sim::SceneConfig scene;
   bool suite = false;
   int suite_size = 30;
+  std::string suite_kind = "default";
+  bool suite_kind_set = false;
   bool bag = true;
   bool lines_set = false, noise_set = false, scene_set = false;
 };
@@ -105,6 +111,19 @@ Options parse(int argc, char** argv) {
       o.scene.pose_offset = Eigen::Vector3d(dx, dy, dyaw);
       i += 3;
       o.scene_set = true;
+    } else if (f == "--loc-error") {
+      if (i + 6 >= a.size())
+        throw std::invalid_argument("--loc-error needs X Y Z ROLL_DEG PITCH_DEG YAW_DEG");
+      for (int k = 0; k < 6; ++k)
+        o.scene.localisation_error(k) = toDouble(f, a[i + 1 + k]) * (k < 3 ? 1.0 : kDeg);
+      i += 6;
+      o.scene_set = true;
+    } else if (f == "--suite-kind") {
+      o.suite_kind = value(i);
+      if (o.suite_kind != "default" && o.suite_kind != "viewpoint")
+        throw std::invalid_argument("--suite-kind must be default or viewpoint, got '" +
+                                    o.suite_kind + "'");
+      o.suite_kind_set = true;
     } else if (f == "--novelties") {
       o.scene.novelty_count = static_cast<int>(toInt(f, value(i)));
       o.scene_set = true;
@@ -131,9 +150,11 @@ Options parse(int argc, char** argv) {
     }
   }
   if (o.out.empty()) throw std::invalid_argument("--out DIR is required");
+  if (o.suite_kind_set && !o.suite) throw std::invalid_argument("--suite-kind needs --suite");
   if (o.suite && o.scene_set)
     throw std::invalid_argument(
-        "--layout, --offset, --novelties and --kinds choose one scene; a --suite varies them");
+        "--layout, --offset, --loc-error, --novelties and --kinds choose one scene; a --suite "
+        "varies them");
   o.scene.seed = o.seed;
   o.scene.validate();
   return o;
@@ -197,12 +218,17 @@ sensor_msgs::PointCloud2 cloudMsg(const Cloud& cloud, const ros::Time& stamp) {
   return m;
 }
 
-void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
-                const std::vector<sim::LaserLine>& lines, const Eigen::Vector3d& base,
-                const Cloud& cloud, double t0, double dt) {
+Eigen::Isometry3d basePose(const Eigen::Vector3d& base) {
   Eigen::Isometry3d T_map_base = Eigen::Isometry3d::Identity();
   T_map_base.translation() = Eigen::Vector3d(base.x(), base.y(), 0.0);
   T_map_base.linear() = Eigen::AngleAxisd(base.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T_map_base;
+}
+
+// T_map_base is the pose the robot reports (with the localisation error, if any).
+void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
+                const std::vector<sim::LaserLine>& lines, const Eigen::Isometry3d& T_map_base,
+                const Cloud& cloud, double t0, double dt) {
   for (std::size_t l = 0; l < lines.size(); ++l) {
     const ros::Time stamp(t0 + dt * l);
     tf2_msgs::TFMessage tf;
@@ -234,8 +260,10 @@ void writeBag(const fs::path& path, const sim::ScenePair& s) {
   {
     rosbag::Bag bag;
     bag.open(tmp.string(), rosbag::bagmode::Write);
-    writeSweep(bag, s.config.laser, s.reference_lines, s.base_pose_reference, s.reference, t0, dt);
-    writeSweep(bag, s.config.laser, s.current_lines, s.base_pose_current, s.current, t0 + 1.0, dt);
+    writeSweep(bag, s.config.laser, s.reference_lines, basePose(s.base_pose_reference), s.reference,
+               t0, dt);
+    writeSweep(bag, s.config.laser, s.current_lines, s.T_error * basePose(s.base_pose_current),
+               s.current, t0 + 1.0, dt);
     bag.close();
   }
   fs::rename(tmp, path);
@@ -253,16 +281,24 @@ nlohmann::json writeScene(const fs::path& dir, const sim::SceneConfig& config, b
   fs::create_directories(dir);
   const sim::ScenePair s = sim::generateScenePair(config);
   saveCloudAtomic((dir / "ref.pcd").string(), s.reference, s.T_world_sensor_reference);
-  saveCloudAtomic((dir / "cur.pcd").string(), s.current, s.T_world_sensor_current);
-  std::string labels;
-  labels.reserve(3 * s.current_labels.size());
-  for (int l : s.current_labels) labels += std::to_string(l) + "\n";
-  writeTextAtomic(dir / "gt_labels.txt", labels);
+  // The current sweep as the robot reports it: cloud and VIEWPOINT in the erroneous frame.
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current, s.T_error * s.T_world_sensor_current);
+  auto lines = [](const auto& values) {
+    std::string text;
+    text.reserve(3 * values.size());
+    for (const auto v : values) text += std::to_string(static_cast<int>(v)) + "\n";
+    return text;
+  };
+  writeTextAtomic(dir / "gt_labels.txt", lines(s.current_labels));
+  writeTextAtomic(dir / "gt_disappeared_labels.txt", lines(s.reference_labels));
+  writeTextAtomic(dir / "gt_newly_visible.txt", lines(s.current_newly_visible));
   const nlohmann::json j = sim::sceneToJson(s);
   writeTextAtomic(dir / "scene.json", j.dump(2) + "\n");
   if (bag) writeBag(dir / "scans.bag", s);
-  std::size_t novel = 0;
+  std::size_t novel = 0, disappeared = 0, newly_visible = 0;
   for (int l : s.current_labels) novel += l > 0;
+  for (int l : s.reference_labels) disappeared += l > 0;
+  for (auto v : s.current_newly_visible) newly_visible += v != 0;
   if (s.objects.size() < config.novelty_kinds.size() ||
       (config.novelty_kinds.empty() && static_cast<int>(s.objects.size()) < config.novelty_count))
     std::cerr << "simulate_scans: warning: " << dir.string()
@@ -270,22 +306,36 @@ nlohmann::json writeScene(const fs::path& dir, const sim::SceneConfig& config, b
   return {{"dir", dir.filename().string()},
           {"seed", config.seed},
           {"layout", sim::toString(config.layout)},
+          {"group", sim::sceneGroup(config)},
           {"objects", kindsText(s)},
           {"object_count", s.objects.size()},
           {"reference_points", s.reference.size()},
           {"current_points", s.current.size()},
           {"novel_points", novel},
+          {"disappeared_points", disappeared},
+          {"newly_visible_points", newly_visible},
           {"pose_offset",
            {{"x_m", config.pose_offset.x()},
             {"y_m", config.pose_offset.y()},
-            {"yaw_deg", config.pose_offset.z() / kDeg}}}};
+            {"yaw_deg", config.pose_offset.z() / kDeg}}},
+          {"localisation_error",
+           {{"x_m", config.localisation_error(0)},
+            {"y_m", config.localisation_error(1)},
+            {"z_m", config.localisation_error(2)},
+            {"roll_deg", config.localisation_error(3) / kDeg},
+            {"pitch_deg", config.localisation_error(4) / kDeg},
+            {"yaw_deg", config.localisation_error(5) / kDeg}}}};
 }
 
 void printScene(const std::string& prefix, const nlohmann::json& j, double seconds) {
-  std::printf("%s%s: %s, %s, %d ref / %d cur points, %d novel, %.2f s\n", prefix.c_str(),
-              j["dir"].get<std::string>().c_str(), j["layout"].get<std::string>().c_str(),
-              j["objects"].get<std::string>().c_str(), j["reference_points"].get<int>(),
-              j["current_points"].get<int>(), j["novel_points"].get<int>(), seconds);
+  std::printf(
+      "%s%s: %s, %s, %s, %d ref / %d cur points, %d novel, %d disappeared, %d newly visible, "
+      "%.2f s\n",
+      prefix.c_str(), j["dir"].get<std::string>().c_str(), j["layout"].get<std::string>().c_str(),
+      j["group"].get<std::string>().c_str(), j["objects"].get<std::string>().c_str(),
+      j["reference_points"].get<int>(), j["current_points"].get<int>(),
+      j["novel_points"].get<int>(), j["disappeared_points"].get<int>(),
+      j["newly_visible_points"].get<int>(), seconds);
   std::fflush(stdout);
 }
 
@@ -306,15 +356,18 @@ int main(int argc, char** argv) {
       const auto t = Clock::now();
       const nlohmann::json j = writeScene(out, opt.scene, opt.bag);
       printScene("", j, std::chrono::duration<double>(Clock::now() - t).count());
-      std::printf("wrote %s/{ref.pcd,cur.pcd,gt_labels.txt,scene.json%s}\n", out.c_str(),
-                  opt.bag ? ",scans.bag" : "");
+      std::printf(
+          "wrote %s/{ref.pcd,cur.pcd,gt_labels.txt,gt_disappeared_labels.txt,"
+          "gt_newly_visible.txt,scene.json%s}\n",
+          out.c_str(), opt.bag ? ",scans.bag" : "");
       return 0;
     }
     fs::create_directories(out);
     nlohmann::json scenes = nlohmann::json::array();
     const auto start = Clock::now();
     for (int i = 0; i < opt.suite_size; ++i) {
-      sim::SceneConfig c = sim::suiteSceneConfig(i, opt.seed);
+      sim::SceneConfig c = opt.suite_kind == "viewpoint" ? sim::viewpointSceneConfig(i, opt.seed)
+                                                         : sim::suiteSceneConfig(i, opt.seed);
       if (opt.lines_set) c.laser.lines = opt.scene.laser.lines;
       if (opt.noise_set) c.laser.noise_variance_m2 = opt.scene.laser.noise_variance_m2;
       char name[32];
@@ -325,8 +378,11 @@ int main(int argc, char** argv) {
       std::snprintf(prefix, sizeof(prefix), "[%d/%d] ", i + 1, opt.suite_size);
       printScene(prefix, scenes.back(), std::chrono::duration<double>(Clock::now() - t).count());
     }
-    const nlohmann::json suite = {
-        {"suite_seed", opt.seed}, {"size", opt.suite_size}, {"bag", opt.bag}, {"scenes", scenes}};
+    const nlohmann::json suite = {{"suite_seed", opt.seed},
+                                  {"size", opt.suite_size},
+                                  {"kind", opt.suite_kind},
+                                  {"bag", opt.bag},
+                                  {"scenes", scenes}};
     writeTextAtomic(out / "suite.json", suite.dump(2) + "\n");
     std::printf("wrote %d scenes and suite.json to %s in %.1f s\n", opt.suite_size, out.c_str(),
                 std::chrono::duration<double>(Clock::now() - start).count());

@@ -41,16 +41,18 @@ struct LaserConfig {
 /// One line of the tilting laser, as a LaserScan would carry it.
 struct LaserLine {
   double tilt_rad = 0.0;
-  std::vector<float> ranges;    ///< per beam [m]; +inf when there is no return
-  std::vector<int> object_ids;  ///< per beam; -1 when there is no return
+  std::vector<float> ranges;        ///< per beam [m]; +inf when there is no return
+  std::vector<int> object_ids;      ///< per beam; -1 when there is no return
+  std::vector<double> true_ranges;  ///< per beam: the noise-free range of a return, else +inf
 };
 
 /// A whole sweep: its lines, and the assembled cloud in the world frame.
 struct TiltScan {
   Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();
   std::vector<LaserLine> lines;
-  Cloud cloud;              ///< returns in line-major, beam order, world frame
-  std::vector<int> labels;  ///< object id per point of cloud (0 static)
+  Cloud cloud;                               ///< returns in line-major, beam order, world frame
+  std::vector<int> labels;                   ///< object id per point of cloud (0 static)
+  std::vector<Eigen::Vector3d> true_points;  ///< noise-free hit per point of cloud, world frame
 };
 
 /// Pose of the sensor (laser at zero tilt) for a robot base at (x, y, yaw) on the floor.

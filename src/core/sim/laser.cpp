@@ -1,6 +1,7 @@
 #include "novelty_detection/sim/laser.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -63,6 +64,7 @@ LaserLine simulateTiltLine(const World& world, const Eigen::Isometry3d& T_world_
   line.tilt_rad = tilt_rad;
   line.ranges.assign(n, std::numeric_limits<float>::infinity());
   line.object_ids.assign(n, -1);
+  line.true_ranges.assign(n, std::numeric_limits<double>::infinity());
   Ray ray;
   ray.origin = T_world_sensor.translation();
   for (int i = 0; i < n; ++i) {
@@ -74,6 +76,7 @@ LaserLine simulateTiltLine(const World& world, const Eigen::Isometry3d& T_world_
     if (r < config.min_range_m || r > config.max_range_m) continue;
     line.ranges[i] = static_cast<float>(r);
     line.object_ids[i] = hit->object_id;
+    line.true_ranges[i] = hit->t;
   }
   return line;
 }
@@ -91,9 +94,9 @@ TiltScan simulateTiltScan(const World& world, const Eigen::Isometry3d& T_world_s
     const LaserLine& line = scan.lines.back();
     for (int i = 0; i < n; ++i) {
       if (line.object_ids[i] < 0) continue;
-      const Eigen::Vector3d p =
-          T_world_sensor *
-          (static_cast<double>(line.ranges[i]) * beamDirection(config.beamAngle(i), line.tilt_rad));
+      const Eigen::Vector3d dir = beamDirection(config.beamAngle(i), line.tilt_rad);
+      const Eigen::Vector3d p = T_world_sensor * (static_cast<double>(line.ranges[i]) * dir);
+      scan.true_points.push_back(T_world_sensor * (line.true_ranges[i] * dir));
       scan.cloud.push_back(
           PointT(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
       scan.labels.push_back(line.object_ids[i]);

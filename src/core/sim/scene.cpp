@@ -31,7 +31,8 @@ struct Movables {
 };
 
 World assemble(const detail::BuiltLayout& layout, const Movables& m,
-               const std::vector<std::vector<PrimitivePtr>>& objects) {
+               const std::vector<std::vector<PrimitivePtr>>& objects,
+               const std::vector<std::vector<PrimitivePtr>>& extra = {}) {
   World w = layout.static_world;
   for (std::size_t i = 0; i < layout.doors.size(); ++i)
     w.add(detail::makeDoorLeaf(layout.doors[i], m.door_angle[i], m.door_id[i]));
@@ -39,7 +40,21 @@ World assemble(const detail::BuiltLayout& layout, const Movables& m,
     w.add(detail::makeFurniture(m.furniture[i], m.furniture_id[i]));
   for (const auto& obj : objects)
     for (const auto& p : obj) w.add(p);
+  for (const auto& obj : extra)
+    for (const auto& p : obj) w.add(p);
   return w;
+}
+
+// The localisation error as a sensor-frame transform: translation, then roll-pitch-yaw
+// R = Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Isometry3d errorInSensorFrame(const Eigen::Matrix<double, 6, 1>& e) {
+  Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
+  E.translation() = e.head<3>();
+  E.linear() = (Eigen::AngleAxisd(e(5), Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(e(4), Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(e(3), Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  return E;
 }
 
 // A floor position for a circle of radius r: inside the free area, clear of obstacles and
@@ -95,6 +110,8 @@ std::string toString(NoveltyKind kind) {
       return "moved_object";
     case NoveltyKind::kDoorAngle:
       return "door";
+    case NoveltyKind::kRemovedObject:
+      return "removed_object";
   }
   return "unknown";
 }
@@ -114,12 +131,21 @@ const std::vector<NoveltyKind>& allNoveltyKinds() {
   return kinds;
 }
 
+const std::vector<NoveltyKind>& everyNoveltyKind() {
+  static const std::vector<NoveltyKind> kinds = [] {
+    std::vector<NoveltyKind> k = allNoveltyKinds();
+    k.push_back(NoveltyKind::kRemovedObject);
+    return k;
+  }();
+  return kinds;
+}
+
 NoveltyKind noveltyKindFromString(const std::string& name) {
-  for (NoveltyKind k : allNoveltyKinds())
+  for (NoveltyKind k : everyNoveltyKind())
     if (toString(k) == name) return k;
   throw std::invalid_argument("unknown novelty kind '" + name +
                               "' (expected box, cylinder, sphere, superellipsoid, person, "
-                              "moved_object or door)");
+                              "moved_object, door or removed_object)");
 }
 
 void SceneConfig::validate() const {
@@ -132,6 +158,10 @@ void SceneConfig::validate() const {
       std::abs(pose_offset.z()) > M_PI / 4)
     throw std::invalid_argument(
         "SceneConfig: pose_offset must be finite, within 1 m and 45 deg of the reference");
+  if (!localisation_error.allFinite() || localisation_error.head<3>().norm() > 0.5 ||
+      localisation_error.tail<3>().cwiseAbs().maxCoeff() > 20.0 * kDeg)
+    throw std::invalid_argument(
+        "SceneConfig: localisation_error must be finite, within 0.5 m and 20 deg per axis");
   if (!(max_object_distance_m >= 2.0))
     throw std::invalid_argument("SceneConfig: max_object_distance_m must be >= 2");
   if (min_object_points < 1) throw std::invalid_argument("SceneConfig: min_object_points < 1");
@@ -181,6 +211,10 @@ ScenePair generateScenePair(const SceneConfig& config) {
   Movables cur_state = ref_state;
 
   std::vector<std::vector<PrimitivePtr>> object_prims;
+  // Removed objects: in the reference world only. They take part in the visibility checks
+  // as if present, so the current sensor would have seen them (it sees their place) and
+  // the reference sensor does see them.
+  std::vector<std::vector<PrimitivePtr>> removed_prims;
   std::vector<ObjectDescription> objects;
   std::vector<Circle> placed;
   LaserConfig check_laser = config.laser;
@@ -240,6 +274,17 @@ ScenePair generateScenePair(const SceneConfig& config) {
         state.furniture_id[fi] = id;
         desc.parts.push_back(detail::boxPart(
             Eigen::Vector3d(f.center.x(), f.center.y(), f.half.z()), f.yaw, f.half));
+      } else if (kind == NoveltyKind::kRemovedObject) {
+        const NoveltyKind shape_kind =
+            uniformInt(rng, 0, 1) == 0 ? NoveltyKind::kBox : NoveltyKind::kCylinder;
+        const detail::ShapeTemplate shape = detail::sampleShape(shape_kind, rng);
+        circle.radius = shape.radius;
+        if (!samplePlacement(rng, layout, placed, base_ref, base_cur, circle.radius,
+                             config.max_object_distance_m, &circle.center))
+          continue;
+        desc.parts = detail::placeParts(shape.parts, circle.center.x(), circle.center.y(),
+                                        uniform(rng, -M_PI, M_PI));
+        for (const auto& part : desc.parts) prims.push_back(detail::primitiveOf(part, id));
       } else {
         const detail::ShapeTemplate shape = detail::sampleShape(kind, rng);
         circle.radius = shape.radius;
@@ -251,19 +296,41 @@ ScenePair generateScenePair(const SceneConfig& config) {
         for (const auto& part : desc.parts) prims.push_back(detail::primitiveOf(part, id));
       }
       // Keep it only if it and every object placed before stay visible enough.
+      const bool removal = kind == NoveltyKind::kRemovedObject;
       auto candidate_prims = object_prims;
-      candidate_prims.push_back(prims);
-      const World world = assemble(layout, state, candidate_prims);
+      auto candidate_removed = removed_prims;
+      (removal ? candidate_removed : candidate_prims).push_back(prims);
+      const World world = assemble(layout, state, candidate_prims, candidate_removed);
       const auto counts = countLabels(simulateTiltScan(world, T_cur, check_laser, 0).labels);
       bool visible = true;
       for (int k = 1; k <= id; ++k) {
         const auto it = counts.find(k);
         if (it == counts.end() || it->second < config.min_object_points) visible = false;
       }
+      Movables ref_candidate = ref_state;
+      if (door_index >= 0) {
+        ref_candidate.door_angle[door_index] = door_ref_angle;
+        ref_candidate.door_id[door_index] = id;
+      }
+      if (kind == NoveltyKind::kMovedObject)
+        for (std::size_t i = 0; i < state.furniture_id.size(); ++i)
+          if (state.furniture_id[i] == id) ref_candidate.furniture_id[i] = id;
+      if (visible && !candidate_removed.empty()) {
+        // Every removed object must also stand in the reference sweep's view.
+        const World ref_world = assemble(layout, ref_candidate, {}, candidate_removed);
+        const auto ref_counts =
+            countLabels(simulateTiltScan(ref_world, T_ref, check_laser, 0).labels);
+        for (const auto& o : objects)
+          if (o.kind == NoveltyKind::kRemovedObject &&
+              (!ref_counts.count(o.id) || ref_counts.at(o.id) < config.min_object_points))
+            visible = false;
+        if (removal && (!ref_counts.count(id) || ref_counts.at(id) < config.min_object_points))
+          visible = false;
+      }
       if (!visible) continue;
       cur_state = state;
-      if (door_index >= 0) ref_state.door_angle[door_index] = door_ref_angle;
-      object_prims.push_back(prims);
+      ref_state = ref_candidate;
+      (removal ? removed_prims : object_prims).push_back(prims);
       objects.push_back(desc);
       if (circle.radius > 0) placed.push_back(circle);
       break;
@@ -277,20 +344,44 @@ ScenePair generateScenePair(const SceneConfig& config) {
   pair.base_pose_current = base_cur;
   pair.T_world_sensor_reference = T_ref;
   pair.T_world_sensor_current = T_cur;
-  pair.reference_world = assemble(layout, ref_state, {});
+  // Object ids in the reference world only label reference points; geometry and noise
+  // draws are those of a world without them.
+  pair.reference_world = assemble(layout, ref_state, {}, removed_prims);
   pair.current_world = assemble(layout, cur_state, object_prims);
   TiltScan ref =
       simulateTiltScan(pair.reference_world, T_ref, config.laser, mixSeed(config.seed, 3));
   TiltScan cur = simulateTiltScan(pair.current_world, T_cur, config.laser, mixSeed(config.seed, 4));
   pair.reference = std::move(ref.cloud);
   pair.reference_lines = std::move(ref.lines);
+  pair.reference_labels = std::move(ref.labels);
   pair.current = std::move(cur.cloud);
   pair.current_lines = std::move(cur.lines);
   pair.current_labels = std::move(cur.labels);
+  pair.current_newly_visible = newlyVisibleMask(pair.reference_world, T_ref, config.laser,
+                                                cur.true_points, pair.current_labels);
+
+  // Localisation error: the robot reports T_cur * E for its sensor, so every point (taken
+  // in the sensor frame and mapped with the reported pose) lands at T_error * p.
+  if (!config.localisation_error.isZero()) {
+    pair.T_error = T_cur * errorInSensorFrame(config.localisation_error) * T_cur.inverse();
+    for (auto& p : pair.current.points) {
+      const Eigen::Vector3d q = pair.T_error * Eigen::Vector3d(p.x, p.y, p.z);
+      p.x = static_cast<float>(q.x());
+      p.y = static_cast<float>(q.y());
+      p.z = static_cast<float>(q.z());
+    }
+    const Eigen::Isometry3d reported = pair.T_error * T_cur;
+    pair.current.sensor_origin_ << reported.translation().cast<float>(), 0.0f;
+    pair.current.sensor_orientation_ = Eigen::Quaternionf(reported.linear().cast<float>());
+  }
+
   const auto counts = countLabels(pair.current_labels);
+  const auto ref_counts = countLabels(pair.reference_labels);
   for (auto& o : objects) {
     const auto it = counts.find(o.id);
     o.points = it == counts.end() ? 0 : it->second;
+    const auto rt = ref_counts.find(o.id);
+    o.reference_points = rt == ref_counts.end() ? 0 : rt->second;
   }
   pair.objects = std::move(objects);
   return pair;

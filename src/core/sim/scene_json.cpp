@@ -41,6 +41,13 @@ nlohmann::json sceneToJson(const ScenePair& s) {
                             {{"x_m", c.pose_offset.x()},
                              {"y_m", c.pose_offset.y()},
                              {"yaw_deg", c.pose_offset.z() * kRadToDeg}}},
+                           {"localisation_error",
+                            {{"x_m", c.localisation_error(0)},
+                             {"y_m", c.localisation_error(1)},
+                             {"z_m", c.localisation_error(2)},
+                             {"roll_deg", c.localisation_error(3) * kRadToDeg},
+                             {"pitch_deg", c.localisation_error(4) * kRadToDeg},
+                             {"yaw_deg", c.localisation_error(5) * kRadToDeg}}},
                            {"min_object_points", c.min_object_points},
                            {"max_object_distance_m", c.max_object_distance_m},
                            {"laser",
@@ -57,6 +64,9 @@ nlohmann::json sceneToJson(const ScenePair& s) {
 
   std::size_t novel = 0;
   for (int l : s.current_labels) novel += l > 0;
+  std::size_t disappeared = 0, newly_visible = 0;
+  for (int l : s.reference_labels) disappeared += l > 0;
+  for (auto v : s.current_newly_visible) newly_visible += v != 0;
 
   nlohmann::json objects = nlohmann::json::array();
   for (const ObjectDescription& o : s.objects) {
@@ -67,8 +77,11 @@ nlohmann::json sceneToJson(const ScenePair& s) {
       j["exact"] = p.sq_exact;
       parts.push_back(j);
     }
-    nlohmann::json j = {
-        {"id", o.id}, {"type", toString(o.kind)}, {"points", o.points}, {"parts", parts}};
+    nlohmann::json j = {{"id", o.id},
+                        {"type", toString(o.kind)},
+                        {"points", o.points},
+                        {"reference_points", o.reference_points},
+                        {"parts", parts}};
     if (o.parts.size() == 1) j["superquadric"] = superquadricToJson(o.parts[0].sq);
     if (o.kind == NoveltyKind::kMovedObject) j["reference_pose"] = basePose(o.reference_pose);
     if (o.kind == NoveltyKind::kDoorAngle) {
@@ -78,14 +91,25 @@ nlohmann::json sceneToJson(const ScenePair& s) {
     objects.push_back(j);
   }
 
+  nlohmann::json removed = nlohmann::json::array();
+  for (const ObjectDescription& o : s.objects)
+    if (o.kind == NoveltyKind::kRemovedObject) removed.push_back(o.id);
   return {{"frame", "map"},
+          {"group", sceneGroup(c)},
           {"config", config},
           {"sensor_reference", poseToJson(s.T_world_sensor_reference)},
           {"sensor_current", poseToJson(s.T_world_sensor_current)},
+          {"sensor_current_reported", poseToJson(s.T_error * s.T_world_sensor_current)},
+          {"T_error", poseToJson(s.T_error)},
+          {"removed_objects", removed},
           {"base_reference", basePose(s.base_pose_reference)},
           {"base_current", basePose(s.base_pose_current)},
           {"points",
-           {{"reference", s.reference.size()}, {"current", s.current.size()}, {"novel", novel}}},
+           {{"reference", s.reference.size()},
+            {"current", s.current.size()},
+            {"novel", novel},
+            {"disappeared", disappeared},
+            {"newly_visible", newly_visible}}},
           {"objects", objects}};
 }
 
