@@ -186,8 +186,8 @@ struct SegmentationParams {
 /// cell with the sweep's angular spacing, margins with tau (segmentation group), the data's
 /// noise and sampling mismatch.
 struct VisibilityParams {
-  double cell_factor = 1.0;  ///< range image cell = factor * mean angular spacing of the sweep
-  double fill_factor = 1.5;  ///< gaps between scan lines up to factor * their p90 are filled
+  double cell_factor = 1.0;    ///< range image cell = factor * mean angular spacing of the sweep
+  double fill_factor = 1.5;    ///< gaps between scan lines up to factor * their p90 are filled
   double margin_factor = 1.0;  ///< free / occluded when the range differs by > factor * tau
   int max_cells = 4000000;     ///< cap on range image cells (the cell grows to stay below)
   double slack_factor = 0.05;  ///< own-cell test widened by factor * the 3x3 range spread

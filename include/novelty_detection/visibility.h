@@ -45,10 +45,10 @@ enum class Visibility : std::uint8_t { kUnknown = 0, kFree, kOccupied, kOccluded
 class RangeImage {
  public:
   struct Config {
-    double cell_factor = 1.0;          ///< cell = factor * mean angular spacing
-    double fill_factor = 1.5;          ///< fill gaps up to factor * the p90 gap between returns
-    std::size_t max_cells = 4000000;   ///< the cell is enlarged to stay below this
-    double slack_factor = 0.05;        ///< kOwnCell: widen by this * the 3x3 range spread
+    double cell_factor = 1.0;         ///< cell = factor * mean angular spacing
+    double fill_factor = 1.5;         ///< fill gaps up to factor * the p90 gap between returns
+    std::size_t max_cells = 4000000;  ///< the cell is enlarged to stay below this
+    double slack_factor = 0.05;       ///< kOwnCell: widen by this * the 3x3 range spread
   };
 
   /// Bins cloud[indices] (all points when `indices` is empty; non-finite points and points
@@ -120,8 +120,8 @@ inline bool novelCandidate(bool have_visibility, Visibility v, bool explained,
 /// `reference`, with margin `margin_m`). All zeros when `reference` is empty.
 template <class DistanceFn>
 std::vector<std::uint8_t> newlyVisible(const Cloud& current, const std::vector<int>& labels,
-                                       const RangeImage& reference, double margin_m,
-                                       double tau_m, DistanceFn&& distance_to_map) {
+                                       const RangeImage& reference, double margin_m, double tau_m,
+                                       DistanceFn&& distance_to_map) {
   std::vector<std::uint8_t> out(current.size(), 0);
   if (reference.empty()) return out;
   for (std::size_t i = 0; i < current.size(); ++i) {

@@ -54,8 +54,8 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   // radii merge: one object seen through the gaps between the current sweep's lines (as
   // for the novelty segments, without the Gaussian ownership, which the reference lacks).
   double link_radius = 0.0;
-  const std::vector<Indices> pieces = linkComponents(
-      reference, seen_through, params.segmentation.link_factor, 1, &link_radius);
+  const std::vector<Indices> pieces =
+      linkComponents(reference, seen_through, params.segmentation.link_factor, 1, &link_radius);
   const std::size_t np = pieces.size();
   std::vector<int> parent(np);
   std::vector<Eigen::Vector3f> lo(np), hi(np);

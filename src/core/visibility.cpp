@@ -93,12 +93,14 @@ void RangeImage::build(const Cloud& cloud, const Indices& indices, const Eigen::
   for (int rr = 0; rr < rows0; ++rr) {
     const double lo = el_lo + rr * c0, hi = std::min<double>(lo + c0, M_PI / 2);
     for (int cc = 0; cc < cols0; ++cc)
-      if (coarse[static_cast<std::size_t>(rr) * cols0 + cc]) covered += c0 * (std::sin(hi) - std::sin(lo));
+      if (coarse[static_cast<std::size_t>(rr) * cols0 + cc])
+        covered += c0 * (std::sin(hi) - std::sin(lo));
   }
   double cell = config.cell_factor * std::sqrt(std::max(covered, 1e-12) / static_cast<double>(n));
   const double el_span = std::max<double>(el_hi - el_lo, 0.0);
-  const double min_cell = std::sqrt(kTwoPi * std::max(el_span, 1e-6) /
-                                    static_cast<double>(std::max<std::size_t>(config.max_cells, 1)));
+  const double min_cell =
+      std::sqrt(kTwoPi * std::max(el_span, 1e-6) /
+                static_cast<double>(std::max<std::size_t>(config.max_cells, 1)));
   cell = std::clamp(cell, std::max(min_cell, 1e-5), M_PI / 8);
   cell_rad_ = cell;
   el_min_ = el_lo;
@@ -166,7 +168,7 @@ void RangeImage::build(const Cloud& cloud, const Indices& indices, const Eigen::
 }
 
 Visibility RangeImage::classify(const Eigen::Vector3f& p, double margin_m,
-                                 Neighbourhood mode) const {
+                                Neighbourhood mode) const {
   if (empty()) return Visibility::kUnknown;
   int col = 0, row = 0;
   float r = 0.f;

@@ -329,8 +329,9 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   if (capture_next_.exchange(false)) {
     try {
       if (cloud.sensor_origin_.head<3>().isZero())
-        NODELET_WARN("captured reference without a viewpoint (the sweep is in the fixed frame "
-                     "and ~sensor_frame is not set)");
+        NODELET_WARN(
+            "captured reference without a viewpoint (the sweep is in the fixed frame "
+            "and ~sensor_frame is not set)");
       reference_->setMap(cloud);
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
@@ -371,8 +372,9 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     for (int l : result.labels) novel_points += l > 0;
     std::ostringstream summary;
     summary << result.segments.size() << " novelties, " << novel_points << " novel points, "
-            << result.superquadrics.size() << " superquadrics, " << result.disappeared_segments.size()
-            << " disappearances, EMD " << result.emd_before << " -> " << result.emd_after;
+            << result.superquadrics.size() << " superquadrics, "
+            << result.disappeared_segments.size() << " disappearances, EMD " << result.emd_before
+            << " -> " << result.emd_after;
     NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++processed_;

@@ -5,8 +5,8 @@
 // Writes DIR/labels.txt (one label per point of CUR, input order), DIR/superquadrics.json,
 // DIR/report.json, DIR/segments.pcd (CUR coloured by segment), DIR/newly_visible.txt (0/1 per
 // point of CUR), DIR/disappeared_labels.txt (one label per point of REF, 0 = still there)
-// and DIR/disappeared_superquadrics.json (same format as superquadrics.json). Exits non-zero with one
-// line on stderr for bad arguments, unreadable input or an invalid configuration.
+// and DIR/disappeared_superquadrics.json (same format as superquadrics.json). Exits non-zero with
+// one line on stderr for bad arguments, unreadable input or an invalid configuration.
 #include <pcl/io/pcd_io.h>
 
 #include <chrono>
@@ -198,7 +198,8 @@ int run(const Args& args) {
   writeText((dir / "disappeared_superquadrics.json").string(),
             superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's viewpoint (PCD VIEWPOINT).
-  const bool checked = params.visibility.disappearances && !current.sensor_origin_.head<3>().isZero();
+  const bool checked =
+      params.visibility.disappearances && !current.sensor_origin_.head<3>().isZero();
   if (params.visibility.disappearances && !checked)
     std::cerr << "novelty_detect: the current cloud has no VIEWPOINT: disappearances not checked\n";
   writeText((dir / "report.json").string(),

@@ -40,8 +40,8 @@ Cloud halfDome() {
   for (double el = -40.0; el <= 40.0; el += 2.0) {
     for (double az = -90.0; az <= 90.0; az += 0.25) {
       const double e = el * M_PI / 180, a = az * M_PI / 180;
-      c.push_back(PointT(5 * std::cos(e) * std::cos(a), 5 * std::cos(e) * std::sin(a),
-                         5 * std::sin(e)));
+      c.push_back(
+          PointT(5 * std::cos(e) * std::cos(a), 5 * std::cos(e) * std::sin(a), 5 * std::sin(e)));
     }
   }
   return c;
@@ -158,13 +158,13 @@ TEST(Visibility, ShiftedViewpointOfUnchangedSceneHasNoNovelty) {
     for (int l : r.labels) labelled += l > 0;
     for (auto f : r.newly_visible) nv += f;
     for (int l : r.disappeared_labels) gone += l > 0;
-    EXPECT_TRUE(r.segments.empty()) << "seed " << seed << ": " << r.segments.size()
-                                    << " novelties, " << labelled << " points";
+    EXPECT_TRUE(r.segments.empty())
+        << "seed " << seed << ": " << r.segments.size() << " novelties, " << labelled << " points";
     EXPECT_EQ(labelled, 0u) << "seed " << seed;
     // Nothing was removed either.
     EXPECT_TRUE(r.disappeared_segments.empty())
-        << "seed " << seed << ": " << r.disappeared_segments.size() << " disappearances, "
-        << gone << " points";
+        << "seed " << seed << ": " << r.disappeared_segments.size() << " disappearances, " << gone
+        << " points";
     ASSERT_EQ(r.newly_visible.size(), s.current.size());
     ASSERT_EQ(r.disappeared_labels.size(), s.reference.size());
     std::printf("seed %u: %zu newly visible points\n", seed, nv);
