@@ -40,29 +40,6 @@ class NearestNeighbourIndex {
   std::unique_ptr<Impl> impl_;
 };
 
-/// What the reference sensor saw along the ray through a point (free-space reasoning).
-/// The map's points are indexed by their direction from the reference viewpoint; a current
-/// point p at range r is in space the reference saw through (so p is new) when the median
-/// range of the map points within `max_angle_rad` of p's direction exceeds r + margin. It is
-/// hidden (the map could not see it: an occluded or out-of-view surface, not a new object)
-/// when that median is below r - margin or no map point lies in that cone.
-class VisibilityIndex {
- public:
-  VisibilityIndex();
-  ~VisibilityIndex();
-  VisibilityIndex(VisibilityIndex&&) noexcept;
-  VisibilityIndex& operator=(VisibilityIndex&&) noexcept;
-
-  void build(const Cloud& cloud, const Indices& indices, const Eigen::Vector3f& origin);
-  bool empty() const;
-  /// True when the reference saw through p (farther than its range + margin_m).
-  bool seenThrough(const Eigen::Vector3f& p, double margin_m, double max_angle_rad) const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
 /// tau = max(floor_m, median + factor * 1.4826 * MAD) of `distances` (0 for an empty list).
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m);
 

@@ -151,7 +151,6 @@ struct SegmentationParams {
   int min_segment_points = 20;           ///< smaller segments are dropped
   double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
-  double visibility_angle_deg = 3.0;     ///< cone around a ray searched for map returns
   bool hidden_unexplained = false;       ///< points hidden from the map may be novel if unexplained
 
   template <class F>
@@ -176,13 +175,61 @@ struct SegmentationParams {
       "a point whose density under the reference mixture exceeds this quantile of the map's "
       "own points' densities lies on a mapped surface and is not novel (0 disables)");
     f("visibility_check", visibility_check,
-      "a novel point must lie in space the reference sweep saw through (needs the reference "
-      "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin)");
-    f("visibility_angle_deg", visibility_angle_deg,
-      "half-angle of the cone around a ray in which map returns are compared [deg]");
+      "a novel point must lie in space the reference sweep saw as free (needs the reference "
+      "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin); see the "
+      "visibility group");
     f("hidden_unexplained", hidden_unexplained,
       "a point the reference could not see is still novel when the reference mixture does not "
       "explain it (density below the map_likelihood_quantile of the map's own points)");
+  }
+  void validate() const;
+};
+
+/// Visibility reasoning (issue 7): what the reference sweep observed as free, occupied or
+/// unknown, as a spherical range image from its sensor origin (rules in visibility.h), the
+/// newly visible points and the disappearances. Sizes and margins scale with the data: the
+/// cell with the sweep's angular spacing, margins with tau (segmentation group), the data's
+/// noise and sampling mismatch.
+struct VisibilityParams {
+  double cell_factor = 1.0;    ///< range image cell = factor * mean angular spacing of the sweep
+  double fill_factor = 1.5;    ///< gaps between scan lines up to factor * their p90 are filled
+  double margin_factor = 1.0;  ///< free / occluded when the range differs by > factor * tau
+  int max_cells = 4000000;     ///< cap on range image cells (the cell grows to stay below)
+  double slack_factor = 0.05;  ///< own-cell test widened by factor * the 3x3 range spread
+  bool newly_visible = true;   ///< flag current points in space the reference never observed
+  bool disappearances = true;  ///< find reference points the current sweep sees through
+  double disappearance_margin_factor = 1.0;  ///< ... by more than factor * tau
+  int min_disappeared_points = 20;           ///< smaller disappeared segments are dropped
+
+  template <class F>
+  void visit(F&& f) {
+    f("cell_factor", cell_factor,
+      "cell of the spherical range images = cell_factor * the sweep's mean angular spacing "
+      "sqrt(covered solid angle / returns)");
+    f("fill_factor", fill_factor,
+      "empty runs of range image cells between two returns (the gaps between scan lines) up "
+      "to fill_factor * the 90th percentile of such runs are filled from the two returns: "
+      "seen, not unknown");
+    f("margin_factor", margin_factor,
+      "a point is in free space when its range from the reference origin is shorter than the "
+      "reference's returns around its ray by more than margin_factor * tau, occluded when "
+      "longer by more than that");
+    f("max_cells", max_cells, "upper bound on the cells of a range image");
+    f("slack_factor", slack_factor,
+      "a current point far from the map is compared with its own cell's ranges widened by "
+      "slack_factor * the spread of ranges in the 3x3 cells around it (grazing surfaces, "
+      "depth edges); disappearances use the whole 3x3 window");
+    f("newly_visible", newly_visible,
+      "report current points far from the map in space the reference never observed "
+      "(occluded or out of view) as newly visible");
+    f("disappearances", disappearances,
+      "report reference points the current sweep sees through (needs the current sensor "
+      "origin, sensor_origin_ / PCD VIEWPOINT; skipped when it is the origin)");
+    f("disappearance_margin_factor", disappearance_margin_factor,
+      "a reference point has disappeared when the current returns around its ray from the "
+      "current origin are all farther than its range + disappearance_margin_factor * tau");
+    f("min_disappeared_points", min_disappeared_points,
+      "disappeared segments with fewer reference points are dropped");
   }
   void validate() const;
 };
@@ -277,6 +324,7 @@ struct Params {
   GmmParams gmm;
   SelectionParams selection;
   SegmentationParams segmentation;
+  VisibilityParams visibility;
   SuperquadricParams superquadric;
 
   /// Calls f(group, name, value&, doc) for every parameter.
@@ -292,6 +340,7 @@ struct Params {
     gmm.visit(in("gmm"));
     selection.visit(in("selection"));
     segmentation.visit(in("segmentation"));
+    visibility.visit(in("visibility"));
     superquadric.visit(in("superquadric"));
   }
 

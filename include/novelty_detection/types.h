@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -76,6 +77,16 @@ struct Result {
   std::vector<int> labels;
   std::vector<Segment> segments;
   std::vector<Superquadric> superquadrics;
+
+  /// One flag per input point, input order: 1 = newly visible (in space the reference never
+  /// observed, far from the map, not novel; never also labelled). See visibility.h.
+  std::vector<std::uint8_t> newly_visible;
+  /// One label per point of the REFERENCE cloud, its input order: 0 = still there (or not
+  /// checked), k > 0 = id of the disappearance segment (the current sweep sees through it).
+  /// Empty segments/superquadrics when the current cloud has no sensor origin.
+  std::vector<int> disappeared_labels;
+  std::vector<Segment> disappeared_segments;            ///< indices into the reference cloud
+  std::vector<Superquadric> disappeared_superquadrics;  ///< `segment` = disappearance id
 
   Gmm current_gmm;
   std::vector<bool> novel_gaussian;  ///< per current_gmm component

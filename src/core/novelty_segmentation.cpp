@@ -52,53 +52,6 @@ double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
   return std::sqrt(static_cast<double>(d2[0]));
 }
 
-struct VisibilityIndex::Impl {
-  Cloud::Ptr directions{new Cloud};  // unit vectors from the viewpoint
-  std::vector<float> ranges;
-  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
-  pcl::KdTreeFLANN<PointT> tree;
-};
-
-VisibilityIndex::VisibilityIndex() : impl_(std::make_unique<Impl>()) {}
-VisibilityIndex::~VisibilityIndex() = default;
-VisibilityIndex::VisibilityIndex(VisibilityIndex&&) noexcept = default;
-VisibilityIndex& VisibilityIndex::operator=(VisibilityIndex&&) noexcept = default;
-
-void VisibilityIndex::build(const Cloud& cloud, const Indices& indices,
-                            const Eigen::Vector3f& origin) {
-  impl_ = std::make_unique<Impl>();
-  impl_->origin = origin;
-  for (int i : indices) {
-    const Eigen::Vector3f d = cloud[i].getVector3fMap() - origin;
-    const float r = d.norm();
-    if (!(r > 1e-6f) || !std::isfinite(r)) continue;
-    const Eigen::Vector3f u = d / r;
-    impl_->directions->push_back(PointT(u.x(), u.y(), u.z()));
-    impl_->ranges.push_back(r);
-  }
-  if (!impl_->directions->empty()) impl_->tree.setInputCloud(impl_->directions);
-}
-
-bool VisibilityIndex::empty() const { return impl_->directions->empty(); }
-
-bool VisibilityIndex::seenThrough(const Eigen::Vector3f& p, double margin_m,
-                                  double max_angle_rad) const {
-  if (empty()) return false;
-  const Eigen::Vector3f d = p - impl_->origin;
-  const float r = d.norm();
-  if (!(r > 1e-6f)) return false;
-  const Eigen::Vector3f u = d / r;
-  std::vector<int> nn;
-  std::vector<float> d2;
-  const double chord = 2.0 * std::sin(0.5 * max_angle_rad);
-  impl_->tree.nearestKSearch(PointT(u.x(), u.y(), u.z()), 8, nn, d2);
-  std::vector<double> ranges;
-  for (std::size_t k = 0; k < nn.size(); ++k)
-    if (d2[k] <= chord * chord) ranges.push_back(impl_->ranges[nn[k]]);
-  if (ranges.empty()) return false;  // the reference has no view along this ray
-  return median(ranges) > r + margin_m;
-}
-
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
   distances.erase(std::remove_if(distances.begin(), distances.end(),
                                  [](double d) { return !std::isfinite(d); }),

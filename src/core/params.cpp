@@ -67,7 +67,16 @@ void SegmentationParams::validate() const {
   requireRange("segmentation/merge_floor_gap_factor", merge_floor_gap_factor, 0.0, 1000.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
   requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
-  requireRange("segmentation/visibility_angle_deg", visibility_angle_deg, 0.01, 45.0);
+}
+
+void VisibilityParams::validate() const {
+  requireRange("visibility/cell_factor", cell_factor, 0.1, 100.0);
+  requireRange("visibility/fill_factor", fill_factor, 0.0, 100.0);
+  requireRange("visibility/margin_factor", margin_factor, 0.0, 100.0);
+  requireRange("visibility/max_cells", max_cells, 1000, 100000000);
+  requireRange("visibility/slack_factor", slack_factor, 0.0, 10.0);
+  requireRange("visibility/disappearance_margin_factor", disappearance_margin_factor, 0.0, 100.0);
+  requireRange("visibility/min_disappeared_points", min_disappeared_points, 1, 100000000);
 }
 
 void SuperquadricParams::validate() const {
@@ -107,6 +116,7 @@ void Params::validate() const {
   gmm.validate();
   selection.validate();
   segmentation.validate();
+  visibility.validate();
   superquadric.validate();
 }
 

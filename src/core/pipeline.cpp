@@ -8,12 +8,14 @@
 #include <limits>
 #include <stdexcept>
 
+#include "novelty_detection/disappearance.h"
 #include "novelty_detection/gmm.h"
 #include "novelty_detection/multiscale_tree.h"
 #include "novelty_detection/novelty_segmentation.h"
 #include "novelty_detection/novelty_selection.h"
 #include "novelty_detection/preprocess.h"
 #include "novelty_detection/shape_retrieval.h"
+#include "novelty_detection/visibility.h"
 
 namespace novelty_detection {
 
@@ -21,7 +23,8 @@ struct ReferenceModel {
   Cloud cloud;                   ///< as given
   Gmm gmm;                       ///< Gamma
   NearestNeighbourIndex points;  ///< every finite reference point (ground included)
-  VisibilityIndex visibility;    ///< map points by direction from the reference viewpoint
+  RangeImage visibility;         ///< free / occupied / unknown seen from its viewpoint
+  Indices kept;                  ///< points that may disappear (no ground, no outliers)
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
   /// +inf when the check is off (no point counts as explained).
@@ -161,8 +164,9 @@ void Pipeline::setReference(const Cloud& reference) {
   model->gmm = GmmFitter(params_.gmm).fit(s.reps);
   model->points.build(reference, s.pre.finite);
   const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
-  if (params_.segmentation.visibility_check && !origin.isZero())
-    model->visibility.build(reference, s.pre.finite, origin);
+  if (!origin.isZero() && origin.allFinite())
+    model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params_.visibility));
+  model->kept = s.pre.kept;
   if (params_.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
     const std::size_t stride = std::max<std::size_t>(1, s.pre.kept.size() / 5000);
     std::vector<int> sample;
@@ -200,6 +204,8 @@ Result Pipeline::detect(const Cloud& current) const {
   const ReferenceModel& ref = *reference_;
   Result result;
   result.labels.assign(current.size(), 0);
+  result.newly_visible.assign(current.size(), 0);
+  result.disappeared_labels.assign(ref.cloud.size(), 0);
   result.point_counts.emplace_back("input", current.size());
   StageTimer timer(result);
   const Simplified s = simplify(params_, current, &result, &timer);
@@ -282,18 +288,17 @@ Result Pipeline::detect(const Cloud& current) const {
       xf.col(i) = point3f(current[far_points[i]]).cast<double>();
     Eigen::VectorXd ll;
     if (!far_points.empty()) responsibilities(ref.gmm, xf, &ll);
-    const double max_angle = params_.segmentation.visibility_angle_deg * M_PI / 180.0;
+    // The fused rule of visibility.h (novelCandidate): free space -> novel; space the
+    // reference never observed -> newly visible, unless the map's mixture cannot explain it.
+    const bool use_visibility = params_.segmentation.visibility_check && !ref.visibility.empty();
+    const double margin = params_.visibility.margin_factor * tau;
     for (std::size_t i = 0; i < far_points.size(); ++i) {
-      // Free space: a new object occupies space the reference saw through. A point the
-      // reference could not see (revealed behind a moved object, out of its view) is novel
-      // only when the map's mixture does not explain it either (quantile test), e.g. a door
-      // leaf swung into space the old leaf hid, but not a wall revealed behind a moved box.
-      const bool seen_through =
-          ref.visibility.empty() ||
-          ref.visibility.seenThrough(point3f(current[far_points[i]]), tau, max_angle);
-      const bool explained = ll[i] >= ref.explained_log_density;
-      if (ref.visibility.empty() ? explained : (!seen_through && explained)) continue;
-      if (!ref.visibility.empty() && !seen_through && !params_.segmentation.hidden_unexplained)
+      const Visibility v = use_visibility
+                               ? ref.visibility.classify(point3f(current[far_points[i]]), margin,
+                                                         RangeImage::Neighbourhood::kOwnCell)
+                               : Visibility::kUnknown;
+      if (!novelCandidate(use_visibility, v, ll[i] >= ref.explained_log_density,
+                          params_.segmentation.hidden_unexplained))
         continue;
       novel_points.push_back(far_points[i]);
       owner.push_back(far_owner[i]);
@@ -379,6 +384,14 @@ Result Pipeline::detect(const Cloud& current) const {
         return n;
       }());
   timer.lap("segmentation");
+  if (params_.visibility.newly_visible) {
+    result.newly_visible =
+        newlyVisible(current, result.labels, ref.visibility, params_.visibility.margin_factor * tau,
+                     tau, [&ref](const Eigen::Vector3f& p) { return ref.points.distance(p); });
+    timer.lap("newly_visible");
+  }
+  if (findDisappearances(params_, ref.cloud, ref.kept, current, tau, &result))
+    timer.lap("disappearances");
 
   // Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
   // the coarse points. A failed fit never loses the detection.
@@ -406,6 +419,10 @@ Result Pipeline::detect(const Cloud& current) const {
       }
     }
     timer.lap("superquadrics");
+  }
+  if (params_.superquadric.enabled && !result.disappeared_segments.empty()) {
+    fitDisappearedSuperquadrics(params_.superquadric, ref.cloud, &result);
+    timer.lap("disappeared_superquadrics");
   }
   return result;
 }

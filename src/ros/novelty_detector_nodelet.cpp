@@ -92,6 +92,7 @@ void NoveltyDetectorNodelet::onInit() {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
 
   novelty_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("novelty_cloud", 1);
+  disappeared_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("disappeared_cloud", 1);
   labelled_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("labelled_cloud", 1);
   superquadrics_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("superquadrics", 1, true);
   gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
@@ -247,8 +248,24 @@ Cloud NoveltyDetectorNodelet::toFixedFrame(const sensor_msgs::PointCloud2& msg,
   return cloud;
 }
 
+void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& cloud_frame,
+                                           const ros::Time& stamp) const {
+  const std::string sensor_frame =
+      node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
+  if (sensor_frame.empty() || sensor_frame == node_params_.fixed_frame) return;
+  try {
+    const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
+        tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp));
+    cloud.sensor_origin_.head<3>() = T_fixed_sensor.translation().cast<float>();
+    cloud.sensor_origin_[3] = 0.f;
+    cloud.sensor_orientation_ = Eigen::Quaternionf(T_fixed_sensor.linear().cast<float>());
+  } catch (const tf2::TransformException& e) {
+    NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor pose for the sweep: %s", e.what());
+  }
+}
+
 Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& cloud_frame,
-                                      const ros::Time& stamp) const {
+                                      const ros::Time& stamp, Cloud* reference) const {
   Eigen::Vector3d lo, hi;
   if (!finiteBounds(cloud, lo, hi)) {
     throw std::invalid_argument("the sweep has no finite point (" + std::to_string(cloud.size()) +
@@ -275,7 +292,10 @@ Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& clo
                             e.what());
     }
   }
-  return reference_->pipelineFor(lo, hi)->detect(cloud);
+  const auto pipeline = reference_->pipelineFor(lo, hi);
+  Result result = pipeline->detect(cloud);
+  if (reference) *reference = pipeline->referenceCloud();
+  return result;
 }
 
 void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstPtr& msg) {
@@ -303,21 +323,15 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
 
   std_msgs::Header header = msg->header;
   header.frame_id = node_params_.fixed_frame;
+  // The sensor pose: the reference's viewpoint when captured (free-space check), the
+  // current viewpoint otherwise (disappearances).
+  setSensorPose(cloud, msg->header.frame_id, msg->header.stamp);
   if (capture_next_.exchange(false)) {
     try {
-      // The sensor pose becomes the reference's viewpoint (free-space check).
-      const std::string sensor_frame =
-          node_params_.sensor_frame.empty() ? msg->header.frame_id : node_params_.sensor_frame;
-      if (sensor_frame != node_params_.fixed_frame) {
-        try {
-          const Eigen::Isometry3d T = tf2::transformToEigen(tf_buffer_->lookupTransform(
-              node_params_.fixed_frame, sensor_frame, msg->header.stamp));
-          cloud.sensor_origin_.head<3>() = T.translation().cast<float>();
-          cloud.sensor_orientation_ = Eigen::Quaternionf(T.linear().cast<float>());
-        } catch (const tf2::TransformException& e) {
-          NODELET_WARN("captured reference without a viewpoint: %s", e.what());
-        }
-      }
+      if (cloud.sensor_origin_.head<3>().isZero())
+        NODELET_WARN(
+            "captured reference without a viewpoint (the sweep is in the fixed frame "
+            "and ~sensor_frame is not set)");
       reference_->setMap(cloud);
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
@@ -340,11 +354,14 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   }
 
   try {
-    const Result result = detect(cloud, msg->header.frame_id, msg->header.stamp);
+    Cloud reference;
+    const Result result = detect(cloud, msg->header.frame_id, msg->header.stamp, &reference);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
     novelty_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, true));
+    disappeared_cloud_pub_.publish(
+        toLabelledPointCloud2(reference, result.disappeared_labels, header, true));
     if (labelled_cloud_pub_.getNumSubscribers() > 0) {
       labelled_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, false));
     }
@@ -355,8 +372,9 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     for (int l : result.labels) novel_points += l > 0;
     std::ostringstream summary;
     summary << result.segments.size() << " novelties, " << novel_points << " novel points, "
-            << result.superquadrics.size() << " superquadrics, EMD " << result.emd_before << " -> "
-            << result.emd_after;
+            << result.superquadrics.size() << " superquadrics, "
+            << result.disappeared_segments.size() << " disappearances, EMD " << result.emd_before
+            << " -> " << result.emd_after;
     NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++processed_;

@@ -67,7 +67,8 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     if (!reference_->hasMap()) throw std::runtime_error("no reference map set");
-    const Cloud cloud = toFixedFrame(req.cloud, true);
+    Cloud cloud = toFixedFrame(req.cloud, true);
+    setSensorPose(cloud, req.cloud.header.frame_id, req.cloud.header.stamp);
     const Result result = detect(cloud, req.cloud.header.frame_id, req.cloud.header.stamp);
     std_msgs::Header header = req.cloud.header;
     header.frame_id = node_params_.fixed_frame;

@@ -52,6 +52,24 @@ SuperquadricPart toSuperquadricMsg(const Superquadric& sq) {
   return m;
 }
 
+namespace {
+
+Novelty toNoveltyMsg(const Segment& seg, const std::vector<Superquadric>& superquadrics) {
+  Novelty n;
+  n.id = seg.id;
+  n.points = static_cast<std::uint32_t>(seg.indices.size());
+  n.centroid = toPoint(seg.centroid);
+  n.bbox_min = toPoint(seg.bbox_min);
+  n.bbox_max = toPoint(seg.bbox_max);
+  n.emd_contribution = seg.emd_contribution;
+  for (const auto& sq : superquadrics) {
+    if (sq.segment == seg.id) n.superquadrics.push_back(toSuperquadricMsg(sq));
+  }
+  return n;
+}
+
+}  // namespace
+
 NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header,
                             double processing_time_s) {
   NoveltyArray out;
@@ -59,19 +77,13 @@ NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header
   out.emd_before = result.emd_before;
   out.emd_after = result.emd_after;
   out.processing_time = processing_time_s;
-  for (const auto& seg : result.segments) {
-    Novelty n;
-    n.id = seg.id;
-    n.points = static_cast<std::uint32_t>(seg.indices.size());
-    n.centroid = toPoint(seg.centroid);
-    n.bbox_min = toPoint(seg.bbox_min);
-    n.bbox_max = toPoint(seg.bbox_max);
-    n.emd_contribution = seg.emd_contribution;
-    for (const auto& sq : result.superquadrics) {
-      if (sq.segment == seg.id) n.superquadrics.push_back(toSuperquadricMsg(sq));
-    }
-    out.novelties.push_back(n);
-  }
+  for (const auto& seg : result.segments)
+    out.novelties.push_back(toNoveltyMsg(seg, result.superquadrics));
+  std::uint32_t nv = 0;
+  for (auto f : result.newly_visible) nv += f != 0;
+  out.newly_visible_points = nv;
+  for (const auto& seg : result.disappeared_segments)
+    out.disappeared.push_back(toNoveltyMsg(seg, result.disappeared_superquadrics));
   return out;
 }
 
@@ -135,6 +147,27 @@ visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
     m.pose.orientation.w = 1.0;  // vertices are already in the fixed frame
     m.scale.x = m.scale.y = m.scale.z = 1.0;
     m.color = segmentColour(sq.segment);
+    for (const auto& v : superquadricTriangles(sq)) {
+      if (!v.allFinite()) continue;
+      m.points.push_back(toPoint(v));
+    }
+    if (!m.points.empty()) out.markers.push_back(m);
+  }
+  // Disappearances: the missing reference structure, translucent dark red, own namespace.
+  for (std::size_t i = 0; i < result.disappeared_superquadrics.size(); ++i) {
+    const auto& sq = result.disappeared_superquadrics[i];
+    visualization_msgs::Marker m;
+    m.header = header;
+    m.ns = "disappeared";
+    m.id = static_cast<int>(i);
+    m.type = visualization_msgs::Marker::TRIANGLE_LIST;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = m.scale.y = m.scale.z = 1.0;
+    m.color.r = 0.6f;
+    m.color.g = 0.05f;
+    m.color.b = 0.1f;
+    m.color.a = 0.5f;
     for (const auto& v : superquadricTriangles(sq)) {
       if (!v.allFinite()) continue;
       m.points.push_back(toPoint(v));

@@ -3,8 +3,10 @@
 //   novelty_detect --reference REF.pcd --current CUR.pcd --out DIR [--config FILE.yaml]
 //
 // Writes DIR/labels.txt (one label per point of CUR, input order), DIR/superquadrics.json,
-// DIR/report.json and DIR/segments.pcd (CUR coloured by segment). Exits non-zero with one
-// line on stderr for bad arguments, unreadable input or an invalid configuration.
+// DIR/report.json, DIR/segments.pcd (CUR coloured by segment), DIR/newly_visible.txt (0/1 per
+// point of CUR), DIR/disappeared_labels.txt (one label per point of REF, 0 = still there)
+// and DIR/disappeared_superquadrics.json (same format as superquadrics.json). Exits non-zero with
+// one line on stderr for bad arguments, unreadable input or an invalid configuration.
 #include <pcl/io/pcd_io.h>
 
 #include <chrono>
@@ -99,9 +101,9 @@ void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
   b = static_cast<std::uint8_t>(55 + 200 * bf);
 }
 
-json superquadricsJson(const nd::Result& r) {
+json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
   json list = json::array();
-  for (const auto& sq : r.superquadrics) {
+  for (const auto& sq : superquadrics) {
     const Eigen::Quaterniond q = sq.quaternion();
     list.push_back(
         {{"segment", sq.segment},
@@ -117,7 +119,7 @@ json superquadricsJson(const nd::Result& r) {
 }
 
 json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
-                double detect_ms) {
+                double detect_ms, bool checked_disappearances) {
   json timings = json::object();
   for (const auto& t : r.timings) timings[t.stage] = t.ms;
   timings["detect_total"] = detect_ms;
@@ -126,6 +128,9 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
   for (const auto& [stage, n] : r.point_counts) counts[stage] = n;
   std::size_t novel = 0;
   for (bool b : r.novel_gaussian) novel += b;
+  std::size_t newly_visible = 0, disappeared = 0;
+  for (auto f : r.newly_visible) newly_visible += f != 0;
+  for (int l : r.disappeared_labels) disappeared += l > 0;
   json segments = json::array();
   for (const auto& s : r.segments) {
     segments.push_back({{"id", s.id},
@@ -146,7 +151,12 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"emd_after", r.emd_after},
           {"num_segments", r.segments.size()},
           {"num_superquadrics", r.superquadrics.size()},
-          {"segments", segments}};
+          {"segments", segments},
+          {"newly_visible_points", newly_visible},
+          {"disappeared_points", disappeared},
+          {"num_disappeared_segments", r.disappeared_segments.size()},
+          {"num_disappeared_superquadrics", r.disappeared_superquadrics.size()},
+          {"disappearances_checked", checked_disappearances}};
 }
 
 int run(const Args& args) {
@@ -173,9 +183,27 @@ int run(const Args& args) {
   labels.reserve(result.labels.size() * 2);
   for (int l : result.labels) labels += std::to_string(l) + '\n';
   writeText((dir / "labels.txt").string(), labels);
-  writeText((dir / "superquadrics.json").string(), superquadricsJson(result).dump(2) + "\n");
+  writeText((dir / "superquadrics.json").string(),
+            superquadricsJson(result.superquadrics).dump(2) + "\n");
+  // Visibility outputs (issue 7): newly visible flags per current point, disappearance
+  // labels per reference point (same convention as labels.txt) and their superquadrics.
+  std::string flags;
+  flags.reserve(result.newly_visible.size() * 2);
+  for (auto f : result.newly_visible) flags += f ? "1\n" : "0\n";
+  writeText((dir / "newly_visible.txt").string(), flags);
+  std::string gone;
+  gone.reserve(result.disappeared_labels.size() * 2);
+  for (int l : result.disappeared_labels) gone += std::to_string(l) + '\n';
+  writeText((dir / "disappeared_labels.txt").string(), gone);
+  writeText((dir / "disappeared_superquadrics.json").string(),
+            superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
+  // Disappearances need the current sweep's viewpoint (PCD VIEWPOINT).
+  const bool checked =
+      params.visibility.disappearances && !current.sensor_origin_.head<3>().isZero();
+  if (params.visibility.disappearances && !checked)
+    std::cerr << "novelty_detect: the current cloud has no VIEWPOINT: disappearances not checked\n";
   writeText((dir / "report.json").string(),
-            reportJson(result, pipeline, ref_ms, det_ms).dump(2) + "\n");
+            reportJson(result, pipeline, ref_ms, det_ms, checked).dump(2) + "\n");
 
   pcl::PointCloud<pcl::PointXYZRGB> coloured;
   coloured.resize(current.size());
@@ -196,7 +224,9 @@ int run(const Args& args) {
               "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
   }
   std::cout << "novelty_detect: " << result.segments.size() << " segment(s), "
-            << result.superquadrics.size() << " superquadric(s), detection " << det_ms << " ms\n";
+            << result.superquadrics.size() << " superquadric(s), "
+            << result.disappeared_segments.size() << " disappearance(s), detection " << det_ms
+            << " ms\n";
   return 0;
 }
 

@@ -1,12 +1,18 @@
 // End to end through a real manager: a simulated scene with an inserted object yields a
-// novelty whose points match the ground truth; the unchanged scene yields none.
+// novelty whose points match the ground truth; the unchanged scene yields none; a removed
+// object (the sweep published in its sensor frame, the pose on tf) is published on
+// ~disappeared_cloud with the removed object's reference points.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 
 #include <unistd.h>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <set>
+#include <tuple>
 
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/SetReference.h"
@@ -27,6 +33,11 @@ class NoveltyScenes : public ::testing::Test {
                                          std::lock_guard<std::mutex> lock(mutex_);
                                          novelties_ = m;
                                        });
+    disappeared_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>(
+        "/detector/disappeared_cloud", 5, [this](const sensor_msgs::PointCloud2::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          disappeared_ = m;
+        });
     labelled_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>(
         "/detector/labelled_cloud", 5, [this](const sensor_msgs::PointCloud2::ConstPtr& m) {
           std::lock_guard<std::mutex> lock(mutex_);
@@ -35,7 +46,7 @@ class NoveltyScenes : public ::testing::Test {
     ASSERT_TRUE(waitFor(
         [this] {
           return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
-                 labelled_sub_.getNumPublishers() > 0;
+                 labelled_sub_.getNumPublishers() > 0 && disappeared_sub_.getNumPublishers() > 0;
         },
         30.0));
     ASSERT_TRUE(ros::service::waitForService("/detector/set_reference", 30000));
@@ -44,8 +55,15 @@ class NoveltyScenes : public ::testing::Test {
   // Sets the scene's reference, publishes its current sweep, waits for the result; returns
   // the labels of the labelled cloud (input order).
   std::vector<std::uint32_t> run(const sim::ScenePair& scene) {
+    return run(scene.reference, scene.T_world_sensor_reference, scene.current, nullptr);
+  }
+
+  // As above with the clouds given; with T_map_sensor the current sweep is published in a
+  // sensor frame whose pose goes on tf (so the detector knows the current viewpoint).
+  std::vector<std::uint32_t> run(const Cloud& reference, const Eigen::Isometry3d& T_map_ref,
+                                 const Cloud& current, const Eigen::Isometry3d* T_map_sensor) {
     const std::string path = "/tmp/novelty_scene_" + std::to_string(getpid()) + ".pcd";
-    saveCloudAtomic(path, scene.reference, scene.T_world_sensor_reference);  // with viewpoint
+    saveCloudAtomic(path, reference, T_map_ref);  // with viewpoint
     SetReference set;
     set.request.path = path;
     EXPECT_TRUE(ros::service::call("/detector/set_reference", set));
@@ -54,12 +72,22 @@ class NoveltyScenes : public ::testing::Test {
     std_msgs::Header h;
     h.frame_id = "map";
     h.stamp = ros::Time::now();
-    pub_.publish(toPointCloud2(scene.current, h));
+    Cloud sweep = current;
+    if (T_map_sensor) {
+      geometry_msgs::TransformStamped t = tf2::eigenToTransform(*T_map_sensor);
+      t.header.frame_id = "map";
+      t.header.stamp = h.stamp;
+      t.child_frame_id = h.frame_id = "sweep_sensor";
+      tf_.sendTransform(t);
+      const Eigen::Isometry3f T_sensor_map = T_map_sensor->inverse().cast<float>();
+      for (auto& p : sweep) p.getVector3fMap() = T_sensor_map * p.getVector3fMap();
+    }
+    pub_.publish(toPointCloud2(sweep, h));
     EXPECT_TRUE(waitFor(
         [&] {
           std::lock_guard<std::mutex> lock(mutex_);
-          return novelties_ && labelled_ && novelties_->header.stamp == h.stamp &&
-                 labelled_->header.stamp == h.stamp;
+          return novelties_ && labelled_ && disappeared_ && novelties_->header.stamp == h.stamp &&
+                 labelled_->header.stamp == h.stamp && disappeared_->header.stamp == h.stamp;
         },
         60.0))
         << "no result for the sweep";
@@ -77,10 +105,11 @@ class NoveltyScenes : public ::testing::Test {
 
   ros::NodeHandle nh_;
   ros::Publisher pub_;
-  ros::Subscriber sub_, labelled_sub_;
+  ros::Subscriber sub_, labelled_sub_, disappeared_sub_;
+  tf2_ros::StaticTransformBroadcaster tf_;
   std::mutex mutex_;
   NoveltyArray::ConstPtr novelties_;
-  sensor_msgs::PointCloud2::ConstPtr labelled_;
+  sensor_msgs::PointCloud2::ConstPtr labelled_, disappeared_;
 };
 
 TEST_F(NoveltyScenes, InsertedBoxIsFoundWithItsPoints) {
@@ -127,6 +156,49 @@ TEST_F(NoveltyScenes, UnchangedSceneHasNoNovelty) {
   ASSERT_TRUE(novelties_);
   EXPECT_TRUE(novelties_->novelties.empty()) << novelties_->novelties.size() << " novelties";
   EXPECT_EQ(found, 0u);
+}
+
+TEST_F(NoveltyScenes, RemovedBoxIsPublishedAsDisappeared) {
+  // An inserted box read backwards: the reference holds it, the current sweep does not.
+  sim::SceneConfig cfg;
+  cfg.seed = 3;
+  cfg.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair scene = sim::generateScenePair(cfg);
+  using Key = std::tuple<float, float, float>;
+  std::set<Key> box;
+  for (std::size_t i = 0; i < scene.current.size(); ++i) {
+    const auto& p = scene.current[i];
+    if (scene.current_labels[i] > 0) box.insert(Key(p.x, p.y, p.z));
+  }
+  ASSERT_GT(box.size(), 50u);
+  const auto labels = run(scene.current, scene.T_world_sensor_current, scene.reference,
+                          &scene.T_world_sensor_reference);
+  ASSERT_EQ(labels.size(), scene.reference.size());
+  std::size_t novel = 0;
+  for (auto l : labels) novel += l > 0;
+  EXPECT_EQ(novel, 0u) << "the removed box must not be novel";
+  std::lock_guard<std::mutex> lock(mutex_);
+  ASSERT_TRUE(disappeared_ && novelties_);
+  const auto& m = *disappeared_;
+  ASSERT_EQ(m.fields.size(), 4u);  // x y z label
+  std::size_t hit = 0;
+  for (std::size_t i = 0; i < m.width * m.height; ++i) {
+    float xyz[3];
+    std::uint32_t l;
+    std::memcpy(xyz, m.data.data() + i * m.point_step, 12);
+    std::memcpy(&l, m.data.data() + i * m.point_step + 12, 4);
+    EXPECT_GT(l, 0u);
+    hit += box.count(Key(xyz[0], xyz[1], xyz[2]));
+  }
+  const std::size_t published = m.width * m.height;
+  std::printf("removed box: %zu reference points, %zu published as disappeared, %zu right\n",
+              box.size(), published, hit);
+  EXPECT_GE(hit, 0.8 * box.size()) << "recall";
+  EXPECT_GE(hit, 0.8 * published) << "precision";
+  ASSERT_GE(novelties_->disappeared.size(), 1u);
+  std::size_t msg_points = 0;
+  for (const auto& d : novelties_->disappeared) msg_points += d.points;
+  EXPECT_EQ(msg_points, published);
 }
 
 int main(int argc, char** argv) {

@@ -87,6 +87,61 @@ TEST(NoveltyDetectCli, WritesTheContractFiles) {
       EXPECT_TRUE(e.contains(key)) << key;
   }
   EXPECT_EQ(loadCloud((out / "segments.pcd").string()).size(), s.current.size());
+  // Saved without VIEWPOINT: no disappearance is checked, every reference label is 0.
+  EXPECT_FALSE(report["disappearances_checked"].get<bool>());
+  std::ifstream gone(out / "disappeared_labels.txt");
+  std::size_t n_ref = 0;
+  for (int l; gone >> l; ++n_ref) EXPECT_EQ(l, 0);
+  EXPECT_EQ(n_ref, s.reference.size());
+  fs::remove_all(dir);
+}
+
+// Visibility outputs: a removed box (an inserted box read backwards), both clouds saved with
+// their VIEWPOINT: disappeared_labels.txt per reference point marks the box, newly_visible.txt
+// has a flag per current point, disappeared_superquadrics.json and the report agree.
+TEST(NoveltyDetectCli, WritesDisappearancesAndNewlyVisible) {
+  const fs::path dir = tempDir("gone");
+  sim::SceneConfig c;
+  c.seed = 3;
+  c.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.current, s.T_world_sensor_current);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.reference, s.T_world_sensor_reference);
+  const fs::path out = dir / "out";
+  const CliRun r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                              (dir / "cur.pcd").string() + " --out " + out.string(),
+                          dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream gone(out / "disappeared_labels.txt");
+  std::size_t n = 0, hit = 0, found = 0, box = 0;
+  for (int l; gone >> l; ++n) {
+    ASSERT_LT(n, s.current_labels.size());
+    found += l > 0;
+    hit += l > 0 && s.current_labels[n] > 0;
+    box += s.current_labels[n] > 0;
+  }
+  EXPECT_EQ(n, s.current.size());  // one per reference point
+  EXPECT_GE(hit, 0.8 * box) << found << " found";
+  EXPECT_GE(hit, 0.95 * found);
+  std::ifstream nv(out / "newly_visible.txt");
+  std::size_t m = 0, flagged = 0;
+  for (int f; nv >> f; ++m) {
+    EXPECT_TRUE(f == 0 || f == 1);
+    flagged += f;
+  }
+  EXPECT_EQ(m, s.reference.size());  // one per current point
+  EXPECT_GT(flagged, 0u);
+  std::ifstream rep(out / "report.json");
+  const auto report = nlohmann::json::parse(rep);
+  EXPECT_TRUE(report["disappearances_checked"].get<bool>());
+  EXPECT_EQ(report["disappeared_points"].get<std::size_t>(), found);
+  EXPECT_EQ(report["newly_visible_points"].get<std::size_t>(), flagged);
+  EXPECT_EQ(report["num_disappeared_segments"].get<int>(), 1);
+  std::ifstream sq(out / "disappeared_superquadrics.json");
+  const auto sqs = nlohmann::json::parse(sq);
+  ASSERT_TRUE(sqs.is_array());
+  EXPECT_GE(sqs.size(), 1u);
+  EXPECT_EQ(sqs.size(), report["num_disappeared_superquadrics"].get<std::size_t>());
   fs::remove_all(dir);
 }
 

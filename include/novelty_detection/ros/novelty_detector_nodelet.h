@@ -32,7 +32,8 @@ namespace novelty_detection {
 /// Subscribes ~input (PointCloud2 sweeps), waits for their transform into ~fixed_frame,
 /// hands the newest sweep to a worker thread (depth 1: a sweep arriving while one waits
 /// replaces it and is counted as dropped) that compares it with the reference map and
-/// publishes ~novelty_cloud, ~labelled_cloud, ~superquadrics, ~gaussians and ~novelties.
+/// publishes ~novelty_cloud, ~disappeared_cloud, ~labelled_cloud, ~superquadrics, ~gaussians
+/// and ~novelties.
 /// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect.
 class NoveltyDetectorNodelet : public nodelet::Nodelet {
  public:
@@ -55,8 +56,13 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   /// Converts a message to the fixed frame; throws with a clear message on bad data.
   Cloud toFixedFrame(const sensor_msgs::PointCloud2& msg, bool wait_for_transform) const;
   /// Runs detection (cloud in the fixed frame, sensed in `cloud_frame`) with the reference
-  /// tiles around it; throws when impossible.
-  Result detect(const Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
+  /// tiles around it; throws when impossible. `reference` (optional) gets the reference
+  /// cloud the result's disappeared_labels refer to.
+  Result detect(const Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp,
+                Cloud* reference = nullptr) const;
+  /// Sets cloud.sensor_origin_/orientation_ to the pose of ~sensor_frame (or of the sweep's
+  /// frame when it is not the fixed frame) at `stamp`; leaves them when tf cannot tell.
+  void setSensorPose(Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
   void loadReferenceFile(const std::string& path);
 
   bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
@@ -79,8 +85,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> tf_filter_;
   ros::Subscriber input_sub_;
-  ros::Publisher status_pub_, novelty_cloud_pub_, labelled_cloud_pub_, superquadrics_pub_,
-      gaussians_pub_, novelties_pub_;
+  ros::Publisher status_pub_, novelty_cloud_pub_, disappeared_cloud_pub_, labelled_cloud_pub_,
+      superquadrics_pub_, gaussians_pub_, novelties_pub_;
   ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;

@@ -12,7 +12,8 @@ namespace novelty_detection {
 /// One Superquadric message (pose from position + the ZYZ Euler rotation).
 SuperquadricPart toSuperquadricMsg(const Superquadric& sq);
 
-/// The NoveltyArray of a result: one Novelty per segment with its superquadrics.
+/// The NoveltyArray of a result: one Novelty per segment with its superquadrics; the
+/// disappearances as Novelty entries of `disappeared` (points counted in the reference).
 NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header,
                             double processing_time_s);
 
@@ -20,7 +21,8 @@ NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header
 std_msgs::ColorRGBA segmentColour(int segment, float alpha = 0.8f);
 
 /// DELETEALL, then one closed TRIANGLE_LIST mesh per superquadric (namespace
-/// "superquadrics", id = its index), coloured by segment.
+/// "superquadrics", id = its index), coloured by segment, and one per superquadric of a
+/// disappearance (namespace "disappeared", translucent dark red).
 visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
                                                     const std_msgs::Header& header);
 
