@@ -15,11 +15,12 @@
 //    independently of their noise, unlike voxel centroids), each weighted by 1 / samples in
 //    its voxel so near, dense parts do not dominate the rotation.
 // 3. Gauss-Newton on r_i = n_i . (T p_i - c_i) over the pose increment (rotation about the
-//    sample centroid, translation), each sample matched to the plane of its own or a
-//    neighbouring cell with the nearest centroid. Robust: Tukey biweight with cut-off
-//    robust_scale_factor * the map's noise (median plane thickness), and a correspondence
-//    gate that starts at the bound and shrinks by gate_shrink per iteration down to that
-//    cut-off, so changed objects (farther than the cut-off from every plane) get no weight.
+//    sample centroid, translation), each sample matched to the plane of its own cell, else
+//    of the neighbouring cell with the nearest centroid. Robust: Tukey biweight with a scale
+//    of robust_scale_factor robust sigmas (1.4826 MAD) of the residuals, at least
+//    robust_scale_factor times the map's noise (median plane thickness); a correspondence
+//    gate starts at twice the bound and shrinks by gate_shrink once the steps are small
+//    against it. Changed objects, farther than that from every plane, get no weight.
 // 4. Degeneracy (Zhang, Kaess, Singh, ICRA 2016): the normal-equation matrix, rotations scaled
 //    by the sample radius, is eigen-decomposed; directions with an eigenvalue below
 //    degeneracy_ratio times the largest (a corridor's axis) are not updated, so the pose

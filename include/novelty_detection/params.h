@@ -274,9 +274,9 @@ struct AlignmentParams {
   int max_iterations = 30;                  ///< Gauss-Newton iteration cap
   double convergence_translation_m = 1e-4;  ///< stop when a step moves less [m] ...
   double convergence_rotation_deg = 0.002;  ///< ... and turns less [deg]
-  double robust_scale_factor = 3.0;         ///< Tukey cut-off = factor * the map's noise
-  double gate_shrink = 0.5;                 ///< correspondence distance shrink per iteration
-  int sample_points = 3000;                 ///< the sweep is voxel-subsampled to about this many
+  double robust_scale_factor = 3.0;         ///< Tukey scale = factor * robust sigma (>= noise)
+  double gate_shrink = 0.5;                 ///< correspondence distance shrink factor
+  int sample_points = 3000;                 ///< the sweep is sampled to about this many points
   int plane_cell_points = 100;              ///< a map point's plane cell holds about this many
   double planarity = 0.25;                  ///< a cell is a plane when l0 < planarity * l1
   double degeneracy_ratio = 0.001;          ///< directions with less information are not corrected
@@ -298,11 +298,13 @@ struct AlignmentParams {
     f("convergence_rotation_deg", convergence_rotation_deg,
       "... and rotates it by less than this, once the gate reached the noise level [deg]");
     f("robust_scale_factor", robust_scale_factor,
-      "Tukey biweight cut-off on point-to-plane residuals, in units of the map's point noise "
-      "(median RMS thickness of its planes)");
+      "Tukey biweight scale on point-to-plane residuals: this many robust sigmas (1.4826 MAD) "
+      "of the residuals, at least this many times the map's point noise (median RMS "
+      "thickness of its planes), at most the correspondence distance");
     f("gate_shrink", gate_shrink,
-      "the correspondence distance starts at the bound and is multiplied by this each "
-      "iteration until the robust cut-off takes over");
+      "the correspondence distance starts at twice the bound and is multiplied by this "
+      "whenever a step moved the sample by less than a quarter of it, down to the noise "
+      "cut-off");
     f("sample_points", sample_points,
       "the sweep is reduced to about this many points (every k-th in input order, weighted by "
       "1 / samples in their voxel, voxel size from the data)");
