@@ -28,10 +28,14 @@ bool finite(const PointT& p) {
 struct CellGrid {
   double cell = 1.0;
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / cell)),
-                           static_cast<int>(std::floor(p.y() / cell)),
-                           static_cast<int>(std::floor(p.z() / cell)));
+    // Clamped into the key's range (and away from int overflow, undefined behaviour): cells
+    // of points beyond it share border keys, and the distance tests then reject them.
+    auto c = [this](double v) {
+      return static_cast<int>(std::clamp(std::floor(v / cell), -kMaxCell, kMaxCell));
+    };
+    return Eigen::Vector3i(c(p.x()), c(p.y()), c(p.z()));
   }
+  static constexpr double kMaxCell = (1 << 20) - 2;
   static std::uint64_t key(const Eigen::Vector3i& c) {
     auto b = [](int v) { return static_cast<std::uint64_t>(v + (1 << 20)) & 0x1FFFFFu; };
     return (b(c.x()) << 42) | (b(c.y()) << 21) | b(c.z());

@@ -258,6 +258,25 @@ TEST(FineAlignment, DegenerateInputsAreRejectedOrPartial) {
   EXPECT_LT(Eigen::AngleAxisd(f.correction.rotation()).angle() / kDeg, 0.1);
 }
 
+// Far coordinates: no overflow, no crash, a finite (rejected or applied) result.
+TEST(FineAlignment, HugeCoordinatesGiveAFiniteResult) {
+  const AlignmentParams p;
+  AlignmentReference ref;
+  ref.build(corridor(1), p);
+  Cloud far = corridor(2);
+  far.push_back(PointT(1e6f, -1e6f, 3e38f));
+  far.push_back(PointT(-3e38f, 3e38f, -1e6f));
+  const AlignmentResult a = FineAligner(p).estimate(ref, far);
+  EXPECT_TRUE(a.correction.matrix().allFinite());
+  EXPECT_TRUE(std::isfinite(a.translation_m) && std::isfinite(a.rotation_deg));
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  shift.translation() = Eigen::Vector3d(1e6, -1e6, 0);
+  AlignmentReference moved;
+  moved.build(transformCloud(corridor(1), shift), p);
+  const AlignmentResult b = FineAligner(p).estimate(moved, transformCloud(corridor(2), shift));
+  EXPECT_TRUE(b.correction.matrix().allFinite()) << b.status;
+}
+
 TEST(FineAlignment, TransformCloudKeepsOrderNaNsAndMovesTheOrigin) {
   Cloud c;
   const float nan = std::numeric_limits<float>::quiet_NaN();
