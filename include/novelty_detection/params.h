@@ -317,6 +317,66 @@ struct SuperquadricParams {
   void validate() const;
 };
 
+/// Fine alignment of the current sweep against the reference before comparison
+/// (alignment.h): robust point-to-plane ICP on reference planes, bounded and reported.
+struct AlignmentParams {
+  bool enabled = false;                     ///< refine the sweep's pose against the reference
+  double max_translation_m = 0.2;           ///< larger corrections are rejected [m]
+  double max_rotation_deg = 5.0;            ///< larger corrections are rejected [deg]
+  int max_iterations = 30;                  ///< Gauss-Newton iteration cap
+  double convergence_translation_m = 1e-4;  ///< stop when a step moves less [m] ...
+  double convergence_rotation_deg = 0.002;  ///< ... and turns less [deg]
+  double robust_scale_factor = 3.0;         ///< Tukey scale = factor * robust sigma (>= noise)
+  double gate_shrink = 0.5;                 ///< correspondence distance shrink factor
+  int sample_points = 3000;                 ///< the sweep is sampled to about this many points
+  int plane_cell_points = 100;              ///< a map point's plane cell holds about this many
+  double planarity = 0.25;                  ///< a cell is a plane when l0 < planarity * l1
+  double degeneracy_ratio = 0.001;          ///< directions with less information are not corrected
+  double min_inlier_fraction = 0.25;        ///< fewer inliers reject the correction
+  int min_correspondences = 50;             ///< fewer matched samples reject the correction
+
+  template <class F>
+  void visit(F&& f) {
+    f("enabled", enabled,
+      "refine the current sweep's pose against the reference (point-to-plane ICP) before "
+      "comparison; off when localisation is trusted");
+    f("max_translation_m", max_translation_m,
+      "a correction moving the sensor origin farther is rejected (pose left unchanged) [m]");
+    f("max_rotation_deg", max_rotation_deg,
+      "a correction rotating more is rejected (pose left unchanged) [deg]");
+    f("max_iterations", max_iterations, "Gauss-Newton iteration cap");
+    f("convergence_translation_m", convergence_translation_m,
+      "converged when a step moves the sample by less than this [m] ...");
+    f("convergence_rotation_deg", convergence_rotation_deg,
+      "... and rotates it by less than this, once the gate reached the noise level [deg]");
+    f("robust_scale_factor", robust_scale_factor,
+      "Tukey biweight scale on point-to-plane residuals: this many robust sigmas (1.4826 MAD) "
+      "of the residuals, at least this many times the map's point noise (median RMS "
+      "thickness of its planes), at most the correspondence distance");
+    f("gate_shrink", gate_shrink,
+      "the correspondence distance starts at twice the bound and is multiplied by this "
+      "whenever a step moved the sample by less than a quarter of it, down to the noise "
+      "cut-off");
+    f("sample_points", sample_points,
+      "the sweep is reduced to about this many points (every k-th in input order, weighted by "
+      "1 / samples in their voxel, voxel size from the data)");
+    f("plane_cell_points", plane_cell_points,
+      "reference planes are fitted in cubic cells sized so that the cell of a typical map point "
+      "holds about this many points (median over points)");
+    f("planarity", planarity,
+      "a reference cell is a plane when its smallest covariance eigenvalue is below "
+      "planarity times the middle one (lines and corners are not used)");
+    f("degeneracy_ratio", degeneracy_ratio,
+      "pose directions whose information (normal-equation eigenvalue, rotations scaled by "
+      "the sample radius) is below this fraction of the largest are left uncorrected");
+    f("min_inlier_fraction", min_inlier_fraction,
+      "a correction with a smaller share of inlier samples is rejected");
+    f("min_correspondences", min_correspondences,
+      "a correction supported by fewer matched samples is rejected");
+  }
+  void validate() const;
+};
+
 /// All parameters. Group names are the YAML sections and ROS parameter namespaces.
 struct Params {
   PreprocessParams preprocess;
@@ -326,6 +386,7 @@ struct Params {
   SegmentationParams segmentation;
   VisibilityParams visibility;
   SuperquadricParams superquadric;
+  AlignmentParams alignment;
 
   /// Calls f(group, name, value&, doc) for every parameter.
   template <class F>
@@ -342,6 +403,7 @@ struct Params {
     segmentation.visit(in("segmentation"));
     visibility.visit(in("visibility"));
     superquadric.visit(in("superquadric"));
+    alignment.visit(in("alignment"));
   }
 
   /// Throws std::invalid_argument naming the first invalid parameter.

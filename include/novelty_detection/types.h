@@ -71,6 +71,23 @@ struct StageTiming {
   double ms = 0.0;
 };
 
+/// What the fine alignment stage (alignment.h) did to the current sweep before comparison.
+/// `correction` maps the sweep as given onto the reference: p_map = correction * p_given.
+struct AlignmentResult {
+  bool attempted = false;  ///< alignment/enabled and a non-empty sweep
+  bool applied = false;    ///< the correction was applied (else the sweep is left as given)
+  std::string status = "disabled";  ///< "applied", or "rejected: <reason>", or "disabled"
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  double translation_m = 0.0;    ///< displacement of the sensor origin (or sample centroid)
+  double rotation_deg = 0.0;     ///< rotation angle of the correction
+  double fitness_m = 0.0;        ///< RMS point-to-plane residual of the inliers [m]
+  double inlier_fraction = 0.0;  ///< share of the sampled points that are inliers
+  int samples = 0;               ///< sampled current points
+  int iterations = 0;
+  int degenerate_directions = 0;  ///< of 6; left unchanged (not corrected)
+  double ms = 0.0;                ///< wall time of the estimate
+};
+
 /// Everything one detection produces.
 struct Result {
   /// One label per input point, input order: 0 = not novel, k > 0 = segment id.
@@ -96,6 +113,9 @@ struct Result {
   /// Points surviving each stage, e.g. {"input", 30000}, {"finite", 29800}, ...
   std::vector<std::pair<std::string, std::size_t>> point_counts;
   std::vector<StageTiming> timings;
+  /// Fine alignment of the sweep. When applied, segments and superquadrics are expressed in
+  /// the reference (map) frame after the correction; labels keep the input order.
+  AlignmentResult alignment;
 
   bool hasNovelty() const { return !segments.empty(); }
 };

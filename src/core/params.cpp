@@ -110,6 +110,22 @@ void SuperquadricParams::validate() const {
   requireRange("superquadric/max_parts", max_parts, 1, 1024);
 }
 
+void AlignmentParams::validate() const {
+  requireRange("alignment/max_translation_m", max_translation_m, 0.0, 100.0);
+  requireRange("alignment/max_rotation_deg", max_rotation_deg, 0.0, 180.0);
+  requireRange("alignment/max_iterations", max_iterations, 1, 1000);
+  requireRange("alignment/convergence_translation_m", convergence_translation_m, 0.0, 1.0);
+  requireRange("alignment/convergence_rotation_deg", convergence_rotation_deg, 0.0, 10.0);
+  requireRange("alignment/robust_scale_factor", robust_scale_factor, 0.5, 100.0);
+  requireRange("alignment/gate_shrink", gate_shrink, 0.05, 1.0);
+  requireRange("alignment/sample_points", sample_points, 10, 10000000);
+  requireRange("alignment/plane_cell_points", plane_cell_points, 5, 100000);
+  requireRange("alignment/planarity", planarity, 0.0, 1.0);
+  requireRange("alignment/degeneracy_ratio", degeneracy_ratio, 0.0, 1.0);
+  requireRange("alignment/min_inlier_fraction", min_inlier_fraction, 0.0, 1.0);
+  requireRange("alignment/min_correspondences", min_correspondences, 6, 100000000);
+}
+
 void Params::validate() const {
   preprocess.validate();
   multiscale.validate();
@@ -118,6 +134,7 @@ void Params::validate() const {
   segmentation.validate();
   visibility.validate();
   superquadric.validate();
+  alignment.validate();
 }
 
 }  // namespace novelty_detection

@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "novelty_detection/alignment.h"
 #include "novelty_detection/disappearance.h"
 #include "novelty_detection/gmm.h"
 #include "novelty_detection/multiscale_tree.h"
@@ -25,6 +26,7 @@ struct ReferenceModel {
   NearestNeighbourIndex points;  ///< every finite reference point (ground included)
   RangeImage visibility;         ///< free / occupied / unknown seen from its viewpoint
   Indices kept;                  ///< points that may disappear (no ground, no outliers)
+  AlignmentReference planes;     ///< map planes for the fine alignment (when enabled)
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
   /// +inf when the check is off (no point counts as explained).
@@ -163,6 +165,7 @@ void Pipeline::setReference(const Cloud& reference) {
   }
   model->gmm = GmmFitter(params_.gmm).fit(s.reps);
   model->points.build(reference, s.pre.finite);
+  if (params_.alignment.enabled) model->planes.build(reference, params_.alignment, s.pre.finite);
   const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
   if (!origin.isZero() && origin.allFinite())
     model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params_.visibility));
@@ -195,19 +198,27 @@ const Gmm& Pipeline::referenceGmm() const {
   return reference_ ? reference_->gmm : empty;
 }
 
-Result Pipeline::detect(const Cloud& current) const {
+Result Pipeline::detect(const Cloud& input) const {
   if (!reference_) throw std::logic_error("detect() called before setReference()");
-  if (current.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
-    throw std::invalid_argument("cloud has " + std::to_string(current.size()) +
+  if (input.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
+    throw std::invalid_argument("cloud has " + std::to_string(input.size()) +
                                 " points, more than preprocess/max_points");
   }
   const ReferenceModel& ref = *reference_;
   Result result;
-  result.labels.assign(current.size(), 0);
-  result.newly_visible.assign(current.size(), 0);
+  result.labels.assign(input.size(), 0);
+  result.newly_visible.assign(input.size(), 0);
   result.disappeared_labels.assign(ref.cloud.size(), 0);
-  result.point_counts.emplace_back("input", current.size());
+  result.point_counts.emplace_back("input", input.size());
   StageTimer timer(result);
+  // Fine alignment (issue 7): everything below sees the sweep in the map frame, in input order.
+  Cloud aligned;
+  if (params_.alignment.enabled && !input.empty()) {
+    result.alignment = FineAligner(params_.alignment).estimate(ref.planes, input);
+    if (result.alignment.applied) aligned = transformCloud(input, result.alignment.correction);
+    timer.lap("alignment");
+  }
+  const Cloud& current = result.alignment.applied ? aligned : input;
   const Simplified s = simplify(params_, current, &result, &timer);
   if (s.reps.size() == 0) return result;  // empty or all-NaN: nothing can be novel
 

@@ -9,10 +9,12 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 
 #include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/alignment.h"
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/result_messages.h"
@@ -356,6 +358,8 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   try {
     Cloud reference;
     const Result result = detect(cloud, msg->header.frame_id, msg->header.stamp, &reference);
+    // Outputs are in the map frame after the fine alignment's correction.
+    if (result.alignment.applied) cloud = transformCloud(cloud, result.alignment.correction);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
@@ -375,12 +379,21 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
             << result.superquadrics.size() << " superquadrics, "
             << result.disappeared_segments.size() << " disappearances, EMD " << result.emd_before
             << " -> " << result.emd_after;
+    std::ostringstream alignment;
+    alignment << result.alignment.status;
+    if (result.alignment.attempted) {
+      alignment << std::setprecision(3) << ", " << result.alignment.translation_m * 100.0 << " cm, "
+                << result.alignment.rotation_deg << " deg, fitness "
+                << result.alignment.fitness_m * 1000.0 << " mm, inliers "
+                << result.alignment.inlier_fraction << ", " << result.alignment.ms << " ms";
+    }
     NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++processed_;
     last_processing_ms_ = ms;
     max_processing_ms_ = std::max(max_processing_ms_, ms);
     last_result_ = summary.str();
+    last_alignment_ = alignment.str();
   } catch (const std::exception& e) {
     warnThrottled("failed", std::string("detection failed: ") + e.what());
     std::lock_guard<std::mutex> lock(stats_mutex_);

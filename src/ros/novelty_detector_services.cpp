@@ -133,6 +133,7 @@ void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("max processing time [ms]", max_processing_ms_);
   stat.add("last result", last_result_);
   stat.add("last error", last_error_);
+  stat.add("last alignment", last_alignment_);
   stat.add("reference points", reference_->mapSize());
   stat.add("reference models cached", reference_->cachedModels());
   stat.add("reference models built", reference_->modelsBuilt());

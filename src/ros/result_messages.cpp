@@ -77,6 +77,18 @@ NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header
   out.emd_before = result.emd_before;
   out.emd_after = result.emd_after;
   out.processing_time = processing_time_s;
+  const AlignmentResult& a = result.alignment;
+  out.alignment_applied = a.applied;
+  out.alignment_status = a.status;
+  const Eigen::Quaterniond q(a.correction.rotation());
+  out.alignment_correction.translation.x = a.correction.translation().x();
+  out.alignment_correction.translation.y = a.correction.translation().y();
+  out.alignment_correction.translation.z = a.correction.translation().z();
+  out.alignment_correction.rotation.x = q.x();
+  out.alignment_correction.rotation.y = q.y();
+  out.alignment_correction.rotation.z = q.z();
+  out.alignment_correction.rotation.w = q.w();
+  out.alignment_fitness = a.fitness_m;
   for (const auto& seg : result.segments)
     out.novelties.push_back(toNoveltyMsg(seg, result.superquadrics));
   std::uint32_t nv = 0;

@@ -3,7 +3,8 @@
 //   novelty_detect --reference REF.pcd --current CUR.pcd --out DIR [--config FILE.yaml]
 //
 // Writes DIR/labels.txt (one label per point of CUR, input order), DIR/superquadrics.json,
-// DIR/report.json, DIR/segments.pcd (CUR coloured by segment), DIR/newly_visible.txt (0/1 per
+// DIR/report.json (with the fine alignment's correction), DIR/segments.pcd (CUR coloured by
+// segment, in the map frame when the alignment moved it), DIR/newly_visible.txt (0/1 per
 // point of CUR), DIR/disappeared_labels.txt (one label per point of REF, 0 = still there)
 // and DIR/disappeared_superquadrics.json (same format as superquadrics.json). Exits non-zero with
 // one line on stderr for bad arguments, unreadable input or an invalid configuration.
@@ -19,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "novelty_detection/alignment.h"
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/params_io.h"
 #include "novelty_detection/pipeline.h"
@@ -141,8 +143,24 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
                         {"emd_contribution", s.emd_contribution},
                         {"gaussians", s.gaussians}});
   }
+  const nd::AlignmentResult& a = r.alignment;
+  const Eigen::Quaterniond aq(a.correction.rotation());
+  const json alignment = {{"attempted", a.attempted},
+                          {"applied", a.applied},
+                          {"status", a.status},
+                          {"translation", vec(Eigen::Vector3d(a.correction.translation()))},
+                          {"quaternion", json::array({aq.x(), aq.y(), aq.z(), aq.w()})},
+                          {"translation_m", a.translation_m},
+                          {"rotation_deg", a.rotation_deg},
+                          {"fitness_m", a.fitness_m},
+                          {"inlier_fraction", a.inlier_fraction},
+                          {"samples", a.samples},
+                          {"iterations", a.iterations},
+                          {"degenerate_directions", a.degenerate_directions},
+                          {"ms", a.ms}};
   return {{"timings_ms", timings},
           {"point_counts", counts},
+          {"alignment", alignment},
           {"gaussians",
            {{"reference", pipeline.referenceGmm().size()},
             {"current", r.current_gmm.size()},
@@ -205,6 +223,9 @@ int run(const Args& args) {
   writeText((dir / "report.json").string(),
             reportJson(result, pipeline, ref_ms, det_ms, checked).dump(2) + "\n");
 
+  // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
+  const nd::Cloud shown =
+      result.alignment.applied ? nd::transformCloud(current, result.alignment.correction) : current;
   pcl::PointCloud<pcl::PointXYZRGB> coloured;
   coloured.resize(current.size());
   coloured.width = current.width;
@@ -212,7 +233,7 @@ int run(const Args& args) {
   coloured.is_dense = current.is_dense;
   for (std::size_t i = 0; i < current.size(); ++i) {
     auto& p = coloured[i];
-    p.x = current[i].x, p.y = current[i].y, p.z = current[i].z;
+    p.x = shown[i].x, p.y = shown[i].y, p.z = shown[i].z;
     colour(result.labels[i], p.r, p.g, p.b);
   }
   if (coloured.empty() ||

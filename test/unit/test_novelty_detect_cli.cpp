@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "novelty_detection/alignment.h"
 #include "novelty_detection/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
 
@@ -171,5 +172,35 @@ TEST(NoveltyDetectCli, FailsCleanly) {
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.err.find("max_components"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  fs::remove_all(dir);
+}
+
+TEST(NoveltyDetectCli, ReportsTheFineAlignment) {
+  const fs::path dir = tempDir("align");
+  sim::SceneConfig c;
+  c.seed = 3;
+  c.novelty_kinds = {sim::NoveltyKind::kBox};
+  c.laser.noise_variance_m2 = 1e-4;
+  const sim::ScenePair s = sim::generateScenePair(c);
+  Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
+  E.translation() = Eigen::Vector3d(0.0, 0.02, 0.0);  // a 2 cm localisation error
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), transformCloud(s.current, E));
+  std::ofstream((dir / "align.yaml").string()) << "alignment:\n  enabled: true\n";
+  const fs::path out = dir / "out";
+  const CliRun r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                              (dir / "cur.pcd").string() + " --out " + out.string() + " --config " +
+                              (dir / "align.yaml").string(),
+                          dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream rep(out / "report.json");
+  const auto report = nlohmann::json::parse(rep);
+  ASSERT_TRUE(report.contains("alignment"));
+  const auto& a = report["alignment"];
+  EXPECT_TRUE(a["applied"].get<bool>()) << a["status"];
+  EXPECT_NEAR(a["translation_m"].get<double>(), 0.02, 0.005);
+  EXPECT_EQ(a["translation"].size(), 3u);
+  EXPECT_EQ(a["quaternion"].size(), 4u);
+  EXPECT_TRUE(report["timings_ms"].contains("alignment"));
   fs::remove_all(dir);
 }

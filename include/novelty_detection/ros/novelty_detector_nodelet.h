@@ -111,6 +111,7 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
               tf_failures_ = 0;
   double last_processing_ms_ = 0.0, max_processing_ms_ = 0.0;
   std::string last_result_ = "none yet", last_error_;
+  std::string last_alignment_ = "none yet";  // fine alignment of the last sweep
   std::map<std::string, std::pair<std::string, ros::WallTime>> last_warning_;
 };
 
