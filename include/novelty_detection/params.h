@@ -260,8 +260,9 @@ struct SuperquadricParams {
       "allowed [m]");
     f("noise_factor", noise_factor,
       "a fit whose mean distance is below noise_factor times the estimated sensor noise "
-      "(local plane RMS; for splitting also sqrt(2/pi) times the part's residual noise) is "
-      "exact: it is not split, merges into it are allowed");
+      "(local plane RMS) is exact: it is not split, merges into it are allowed; a part is also "
+      "not split when its mean distance is below (1 + merge_tolerance) sqrt(2/pi) times the "
+      "noise in its own residuals");
     f("neighbour_distance_factor", neighbour_distance_factor,
       "two parts are neighbours when their points come closer than this times the radius of a "
       "typical two-dimensional 12-point neighbourhood");

@@ -32,13 +32,13 @@ struct SuperquadricPart {
 /// Split: a part P (n points, fit error e = mean first-order Euclidean distance,
 /// meanSurfaceDistance(), comparable with the noise unlike the radial distance) is cut by the plane
 /// through its centroid normal to its main inertia axis (largest covariance eigenvalue)
-/// when e > max(E, noise_factor sqrt(2/pi) sigma_P) (sqrt(2/pi) sigma: the mean distance of
-/// pure Gaussian noise), both halves keep >= split_min_points, and the halves' points-weighted mean
-/// error (n1 e1 + n2 e2) / n < split_gain * e, or regardless of the halves when the part is
-/// far from explained, e > split_force_factor * E (a cut across a junction can leave both
-/// halves mixed, no better than the parent; the merge regroups what belongs together). Parts are
-/// split in order of their distortion n * e, recursively, up to 4 * max_parts leaves (a binary
-/// tree).
+/// when e > max(E, (1 + merge_tolerance) sqrt(2/pi) sigma_P) (sqrt(2/pi) sigma: the mean
+/// distance of pure Gaussian noise; t = merge_tolerance is the slack the merge allows too), both
+/// halves keep >= split_min_points, and the halves' points-weighted mean error (n1 e1 + n2 e2) / n
+/// < split_gain * e, or regardless of the halves when the part is far from explained, e >
+/// split_force_factor * E (a cut across a junction can leave both halves mixed, no better than the
+/// parent; the merge regroups what belongs together). Parts are split in order of their distortion
+/// n * e, recursively, up to 4 * max_parts leaves (a binary tree).
 ///
 /// Neighbours: sibling leaves, and leaves whose points come closer than r (found with a
 /// hash grid, once; the merge reuses this topology instead of recomputing it).

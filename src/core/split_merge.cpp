@@ -20,6 +20,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMeanAbsGaussian = 0.7978845608028654;  // E|x| / sigma = sqrt(2 / pi)
+constexpr double kMaxLagFraction = 0.1;  // residual noise: median lag <= this x part diagonal
 
 Points3d gather(const Points3d& points, const Indices& indices) {
   Points3d out;
@@ -93,7 +94,9 @@ void neighbourhoodScale(const Points3d& points, double* radius, double* noise) {
 /// 3D alone, a point pushed outward by noise is nearest to others pushed outward, which
 /// would hide the noise. Unlike a local
 /// plane's RMS it sees the range noise of a scanning sensor, whose scan lines are each
-/// exactly planar whatever their noise. 0 when no point has a neighbour within `radius`.
+/// exactly planar whatever their noise. 0 when no point has a neighbour within `radius`, or
+/// when the median neighbour distance exceeds kMaxLagFraction of the part's bounding-box
+/// diagonal (sparse scans: the differences would carry model error too).
 double residualNoise(const Points3d& points, const Indices& part, const std::vector<int>& owner,
                      const Superquadric& model, const PointGrid& grid, double radius) {
   const std::size_t n = part.size();
@@ -104,7 +107,7 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   // behind it); of these, the nearest along the tangent plane.
   constexpr std::size_t kCandidates = 6;
   std::vector<std::pair<double, int>> near;
-  std::vector<double> sq_diff;
+  std::vector<double> sq_diff, lag;
   sq_diff.reserve(samples);
   for (std::size_t s = 0; s < samples; ++s) {
     const Eigen::Vector3d& p = points[static_cast<std::size_t>(part[s * n / samples])];
@@ -131,9 +134,21 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
     }
     const double diff = signedSurfaceDistance(model, p) -
                         signedSurfaceDistance(model, points[static_cast<std::size_t>(nearest)]);
-    if (std::isfinite(diff)) sq_diff.push_back(diff * diff);
+    if (std::isfinite(diff)) {
+      sq_diff.push_back(diff * diff);
+      lag.push_back((points[static_cast<std::size_t>(nearest)] - p).norm());
+    }
   }
   if (sq_diff.empty()) return 0.0;
+  // The nugget needs lags far shorter than the scale of the model's error, the part's size:
+  // on sparse scans neighbours are far apart and their differences carry model error too.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = -lo;
+  for (int i : part) {
+    lo = lo.cwiseMin(points[static_cast<std::size_t>(i)]);
+    hi = hi.cwiseMax(points[static_cast<std::size_t>(i)]);
+  }
+  std::nth_element(lag.begin(), lag.begin() + lag.size() / 2, lag.end());
+  if (lag[lag.size() / 2] > kMaxLagFraction * (hi - lo).norm()) return 0.0;
   std::nth_element(sq_diff.begin(), sq_diff.begin() + sq_diff.size() / 2, sq_diff.end());
   return std::sqrt(sq_diff[sq_diff.size() / 2] / (2.0 * 0.4549));
 }
@@ -223,9 +238,9 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     const Indices& idx = nodes[id].indices;
     const double e = nodes[id].fit.mean_distance;
     // Exact: the fit explains the points within the noise seen in its own residuals (mean
-    // distance of pure Gaussian noise: sqrt(2 / pi) sigma).
+    // distance of pure Gaussian noise: sqrt(2 / pi) sigma), up to the merge's slack t.
     const double exact_here =
-        std::max(exact, params_.noise_factor * kMeanAbsGaussian * nodes[id].noise);
+        std::max(exact, (1.0 + params_.merge_tolerance) * kMeanAbsGaussian * nodes[id].noise);
     if (e <= exact_here || idx.size() < 2 * min_points) continue;
     const PrincipalFrame frame = principalFrame(gather(points, idx));
     const Eigen::Vector3d axis = frame.axes.col(2);  // main inertia axis
