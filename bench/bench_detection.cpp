@@ -112,10 +112,12 @@ const sim::ScenePair& scene(int points) {
   return *slot;
 }
 
-void detection(benchmark::State& state, bool superquadrics) {
+/// range(0): points; threads: compute/threads (0: default; 1 = the single-thread figure).
+void detection(benchmark::State& state, bool superquadrics, int threads) {
   const sim::ScenePair& s = scene(static_cast<int>(state.range(0)));
   Params p;
   p.superquadric.enabled = superquadrics;
+  p.compute.threads = threads;
   Pipeline pipeline(p);
   pipeline.setReference(s.reference);
   Result r;
@@ -125,13 +127,23 @@ void detection(benchmark::State& state, bool superquadrics) {
   state.counters["f1"] = sc.f1;
   state.counters["success"] = sc.success;
   state.counters["segments"] = static_cast<double>(r.segments.size());
+  state.counters["superquadrics"] = static_cast<double>(r.superquadrics.size());
 }
 
-void BM_Detect(benchmark::State& state) { detection(state, false); }
+void BM_Detect(benchmark::State& state) { detection(state, false, 0); }
 BENCHMARK(BM_Detect)->Arg(3000)->Arg(30000)->Arg(100000)->Unit(benchmark::kMillisecond);
 
-void BM_DetectWithSuperquadrics(benchmark::State& state) { detection(state, true); }
-BENCHMARK(BM_DetectWithSuperquadrics)->Arg(30000)->Unit(benchmark::kMillisecond);
+/// range(1): threads.
+void BM_DetectWithSuperquadrics(benchmark::State& state) {
+  detection(state, true, static_cast<int>(state.range(1)));
+}
+// Wall time; CPU time of the whole process (all threads).
+BENCHMARK(BM_DetectWithSuperquadrics)
+    ->Args({30000, 1})
+    ->Args({30000, 2})
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 /// The 30-scene suite of sim::suiteSceneConfig(i, seed) with a range-noise variance of
 /// noise_um2 * 1e-6 m^2 (0: the simulator's default), superquadrics off. Counters: scene

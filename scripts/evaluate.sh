@@ -36,7 +36,7 @@ fi
 {
   echo "Machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'),"\
        "$(awk '/MemTotal/ {printf "%.1f GB RAM", $2/1048576}' /proc/meminfo), load $(cut -d' ' -f1-3 /proc/loadavg)"
-  echo "Build: ${NOVELTY_BUILD_TYPE:-Release}, single-threaded core; commit $(git -C "$REPO" rev-parse --short HEAD)"
+  echo "Build: ${NOVELTY_BUILD_TYPE:-Release}, compute/threads default (0: $(nproc) threads for the superquadric fits); commit $(git -C "$REPO" rev-parse --short HEAD)"
   echo "Parameters: config/default.yaml defaults (finest cut: multiscale/n_max 1, gmm/max_fit_points unlimited)"
   echo "Date: $(date -u '+%Y-%m-%d %H:%M UTC')"
 } > "$OUT/machine.txt"

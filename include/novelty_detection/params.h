@@ -255,6 +255,7 @@ struct SuperquadricParams {
   int split_max_points = 2400;       ///< split and merge works on at most this many points
   int split_min_points = 40;         ///< a part is not split into halves smaller than this
   int split_fit_points = 80;         ///< parts are subsampled to this while splitting/merging
+  int split_iterations = 15;         ///< LM iteration cap of the fits inside split and merge
   double split_gain = 0.9;           ///< split when halves' mean error < split_gain * parent's
   double split_force_factor = 1.25;  ///< split regardless of gain above this x exact error
   double merge_tolerance = 0.25;     ///< slack of the merge rule (see split_merge.h)
@@ -292,6 +293,9 @@ struct SuperquadricParams {
     f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
     f("split_fit_points", split_fit_points,
       "parts are subsampled to at most this many points for split and merge fits");
+    f("split_iterations", split_iterations,
+      "Levenberg-Marquardt iteration cap of the fits that only rank splits and merges (the "
+      "final parts are polished with max_iterations)");
     f("split_gain", split_gain,
       "split a part when the halves' points-weighted mean distance is below "
       "split_gain times the part's");
@@ -308,7 +312,9 @@ struct SuperquadricParams {
       "allowed [m]");
     f("noise_factor", noise_factor,
       "a fit whose mean distance is below noise_factor times the estimated sensor noise "
-      "(local plane RMS) is exact: it is not split, merges into it are allowed");
+      "(local plane RMS) is exact: it is not split, merges into it are allowed; a part is also "
+      "not split when its mean distance is below (1 + merge_tolerance) sqrt(2/pi) times the "
+      "noise in its own residuals");
     f("neighbour_distance_factor", neighbour_distance_factor,
       "two parts are neighbours when their points come closer than this times the radius of a "
       "typical two-dimensional 12-point neighbourhood");
@@ -377,6 +383,22 @@ struct AlignmentParams {
   void validate() const;
 };
 
+/// How the work is spread over the CPU's cores. Results do not depend on it: parallel
+/// loops only compute independent items (superquadric fits) into fixed slots.
+struct ComputeParams {
+  int threads = 0;  ///< threads; 0 = hardware concurrency capped at 8; 1 = serial
+
+  template <class F>
+  void visit(F&& f) {
+    f("threads", threads,
+      "threads for the superquadric fits (0: the hardware concurrency, at most 8; 1: "
+      "single-threaded); results are identical for any value");
+  }
+  void validate() const;
+  /// The thread count to use: threads, or the capped hardware concurrency when 0.
+  int resolved() const;
+};
+
 /// All parameters. Group names are the YAML sections and ROS parameter namespaces.
 struct Params {
   PreprocessParams preprocess;
@@ -387,6 +409,7 @@ struct Params {
   VisibilityParams visibility;
   SuperquadricParams superquadric;
   AlignmentParams alignment;
+  ComputeParams compute;
 
   /// Calls f(group, name, value&, doc) for every parameter.
   template <class F>
@@ -404,6 +427,7 @@ struct Params {
     visibility.visit(in("visibility"));
     superquadric.visit(in("superquadric"));
     alignment.visit(in("alignment"));
+    compute.visit(in("compute"));
   }
 
   /// Throws std::invalid_argument naming the first invalid parameter.

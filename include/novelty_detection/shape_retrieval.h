@@ -19,8 +19,13 @@ class ShapeRetrieval {
   std::vector<Superquadric> recover(const Points3d& fine, const Points3d& coarse,
                                     int segment_id) const;
 
+  /// Threads for independent fits (compute/threads); results do not depend on it.
+  /// Default: ComputeParams().resolved().
+  void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
+
  private:
   SuperquadricParams params_;
+  int threads_ = ComputeParams().resolved();
 };
 
 }  // namespace novelty_detection

@@ -23,15 +23,22 @@ struct SuperquadricPart {
 /// after splitting, E is raised to noise_factor times the median leaf error if larger
 /// (the plane RMS underestimates range noise on laser sweeps).
 ///
+/// Residual noise of a part: sigma_P, the nugget of its fit's residuals (signed distances of
+/// each point and of its nearest neighbour along the tangent plane differ by noise alone,
+/// sigma_P^2 = median of their squared difference / (2 * 0.4549)). Unlike the plane RMS it
+/// sees range noise on laser sweeps (each scan line is exactly planar), so noisy cylinders
+/// are not split into pieces.
+///
 /// Split: a part P (n points, fit error e = mean first-order Euclidean distance,
 /// meanSurfaceDistance(), comparable with the noise unlike the radial distance) is cut by the plane
 /// through its centroid normal to its main inertia axis (largest covariance eigenvalue)
-/// when e > E, both halves keep >= split_min_points, and the halves' points-weighted mean
-/// error (n1 e1 + n2 e2) / n < split_gain * e, or regardless of the halves when the part is
-/// far from explained, e > split_force_factor * E (a cut across a junction can leave both
-/// halves mixed, no better than the parent; the merge regroups what belongs together). Parts are
-/// split in order of their distortion n * e, recursively, up to 4 * max_parts leaves (a binary
-/// tree).
+/// when e > max(E, (1 + merge_tolerance) sqrt(2/pi) sigma_P) (sqrt(2/pi) sigma: the mean
+/// distance of pure Gaussian noise; t = merge_tolerance is the slack the merge allows too), both
+/// halves keep >= split_min_points, and the halves' points-weighted mean error (n1 e1 + n2 e2) / n
+/// < split_gain * e, or regardless of the halves when the part is far from explained, e >
+/// split_force_factor * E (a cut across a junction can leave both halves mixed, no better than the
+/// parent; the merge regroups what belongs together). Parts are split in order of their distortion
+/// n * e, recursively, up to 4 * max_parts leaves (a binary tree).
 ///
 /// Neighbours: sibling leaves, and leaves whose points come closer than r (found with a
 /// hash grid, once; the merge reuses this topology instead of recomputing it).
@@ -51,7 +58,9 @@ struct SuperquadricPart {
 /// are dissolved when the other parts' surfaces explain their points (mean nearest distance
 /// <= max(E, (1 + t) e_j)), and every point finally moves to the nearest part surface (two
 /// rounds, each kept only if the summed point distance drops). Fits during split and merge
-/// use at most split_fit_points points per part.
+/// use at most split_fit_points points per part and split_iterations LM iterations; the
+/// independent ones (the halves of a split, merge costs, refits) run on setThreads()
+/// threads with the same result for any count.
 class SplitMerge {
  public:
   /// Throws std::invalid_argument if params do not validate.
@@ -60,6 +69,10 @@ class SplitMerge {
   /// Test hook: false recomputes every pairwise merge cost after each merge (the
   /// non-memoized reference the memoized result must equal).
   void setMemoize(bool memoize) { memoize_ = memoize; }
+
+  /// Threads for the independent fits (halves of a split, merge costs, refits); the result
+  /// is the same for any count. Default: ComputeParams().resolved().
+  void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
 
   /// Parts of `points` (one connected object or a few touching ones). `whole` (optional)
   /// is an already fitted model of all points, reused as the root's fit.
@@ -71,8 +84,10 @@ class SplitMerge {
     int merges = 0;      ///< merges performed
     int merge_fits = 0;  ///< merged fits computed (memoization lowers it)
     int neighbour_pairs = 0;
-    int dissolved = 0;     ///< junction pieces dissolved into their neighbours
-    double noise_m = 0.0;  ///< estimated sensor noise (local plane RMS) [m]
+    int dissolved = 0;              ///< junction pieces dissolved into their neighbours
+    double noise_m = 0.0;           ///< estimated sensor noise: max of the two below [m]
+    double plane_noise_m = 0.0;     ///< local plane RMS [m]
+    double residual_noise_m = 0.0;  ///< nugget of the whole fit's residuals [m]
   };
   const Stats& stats() const { return stats_; }
 
@@ -80,6 +95,7 @@ class SplitMerge {
   SuperquadricParams params_;
   SuperquadricFitter fitter_;
   bool memoize_ = true;
+  int threads_ = ComputeParams().resolved();
   mutable Stats stats_;
 };
 

@@ -79,6 +79,8 @@ double meanRadialDistance(const Superquadric& sq, const Points3d& points);
 /// noise on the long faces of elongated shapes, where rays from the centre meet the surface
 /// obliquely. Falls back to the radial distance at the centre.
 double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
+/// surfaceDistance() with a sign: negative inside (F < 1), positive outside.
+double signedSurfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
 /// Mean of surfaceDistance() over points [m]; 0 when empty.
 double meanSurfaceDistance(const Superquadric& sq, const Points3d& points);
 

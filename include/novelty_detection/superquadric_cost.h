@@ -12,6 +12,7 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "novelty_detection/superquadric.h"
 
@@ -61,6 +62,23 @@ class SuperquadricAnalyticResidual : public ceres::SizedCostFunction<1, 3, 2, 3,
 
  private:
   Eigen::Vector3d q_;
+};
+
+/// All points' residuals in one cost function (the same values and derivatives as one
+/// SuperquadricAnalyticResidual per point, up to rounding): the rotation terms are computed
+/// once per evaluation instead of once per point, the logs and exps run vectorised over
+/// the points, and Ceres handles one block instead of n. Only valid without a robust loss
+/// (a loss would act on the block's summed squares).
+class SuperquadricBatchResidual : public ceres::CostFunction {
+ public:
+  /// `q`: the points in the start model's frame.
+  explicit SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Matrix3Xd q_;
 };
 
 }  // namespace novelty_detection

@@ -1,6 +1,8 @@
 #include "novelty_detection/params.h"
 
+#include <algorithm>
 #include <sstream>
+#include <thread>
 
 namespace novelty_detection {
 namespace {
@@ -103,6 +105,7 @@ void SuperquadricParams::validate() const {
   requireRange("superquadric/split_fit_points", split_fit_points, 11, 100000000);
   requireRange("superquadric/split_gain", split_gain, 0.0, 1.0);
   requireRange("superquadric/split_force_factor", split_force_factor, 1.0, 1e6);
+  requireRange("superquadric/split_iterations", split_iterations, 1, 10000);
   requireRange("superquadric/merge_tolerance", merge_tolerance, 0.0, 10.0);
   requireRange("superquadric/error_floor_m", error_floor_m, 0.0, 10.0);
   requireRange("superquadric/noise_factor", noise_factor, 0.0, 100.0);
@@ -126,6 +129,14 @@ void AlignmentParams::validate() const {
   requireRange("alignment/min_correspondences", min_correspondences, 6, 100000000);
 }
 
+void ComputeParams::validate() const { requireRange("compute/threads", threads, 0, 256); }
+
+int ComputeParams::resolved() const {
+  if (threads > 0) return threads;
+  const unsigned hw = std::thread::hardware_concurrency();
+  return static_cast<int>(std::min(8u, std::max(1u, hw)));
+}
+
 void Params::validate() const {
   preprocess.validate();
   multiscale.validate();
@@ -135,6 +146,7 @@ void Params::validate() const {
   visibility.validate();
   superquadric.validate();
   alignment.validate();
+  compute.validate();
 }
 
 }  // namespace novelty_detection

@@ -407,7 +407,8 @@ Result Pipeline::detect(const Cloud& input) const {
   // Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
   // the coarse points. A failed fit never loses the detection.
   if (params_.superquadric.enabled && !result.segments.empty()) {
-    const ShapeRetrieval retrieval(params_.superquadric);
+    ShapeRetrieval retrieval(params_.superquadric);
+    retrieval.setThreads(params_.compute.resolved());
     for (const Segment& seg : result.segments) {
       Points3d fine, coarse;
       fine.reserve(seg.indices.size());

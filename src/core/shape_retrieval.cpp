@@ -4,6 +4,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "detail/parallel.h"
 #include "novelty_detection/point_grid.h"
 #include "novelty_detection/split_merge.h"
 #include "novelty_detection/superquadric.h"
@@ -30,19 +31,20 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
   // points, and a fit on the finer points from the moment initialisation; the lower mean
   // radial distance on the finer points wins.
-  FitResult best = fitter.fit(sub);
-  if (coarse.size() >= 11) {
-    bool coarse_finite = true;
-    for (const auto& p : coarse) coarse_finite = coarse_finite && p.allFinite();
-    if (coarse_finite) {
-      const FitResult refined =
-          fitter.refine(sub, fitter.fit(subsample(coarse, params_.max_fit_points)).sq);
-      if (refined.mean_radial_distance < best.mean_radial_distance) best = refined;
-    }
-  }
+  // The two are independent: in parallel.
+  bool coarse_usable = coarse.size() >= 11;
+  for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
+  FitResult fits[2];
+  detail::parallelFor(coarse_usable ? 2 : 1, threads_, [&](int k) {
+    fits[k] = k == 0 ? fitter.fit(sub)
+                     : fitter.refine(sub, fitter.fit(subsample(coarse, params_.max_fit_points)).sq);
+  });
+  FitResult best = fits[0];
+  if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
-  const SplitMerge split_merge(params_);
+  SplitMerge split_merge(params_);
+  split_merge.setThreads(threads_);
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) parts.front().fit = best;
 
@@ -83,14 +85,17 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     out[k].indices.push_back(static_cast<int>(i));
     part_points[k].push_back(fine[i]);
   }
-  for (std::size_t k = 0; k < parts.size(); ++k) {
-    Indices indices = std::move(out[k].indices);
-    if (parts.size() > 1 && !part_points[k].empty()) {
-      // Parts were fitted on few points while splitting and merging: polish each on its
-      // own (subsampled) fine points.
+  // Parts were fitted on few points while splitting and merging: polish each on its own
+  // (subsampled) fine points, the parts in parallel.
+  if (parts.size() > 1) {
+    detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
+      if (part_points[k].empty()) return;
       parts[k].fit =
           fitter.refine(subsample(part_points[k], params_.max_fit_points), parts[k].fit.sq);
-    }
+    });
+  }
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    Indices indices = std::move(out[k].indices);
     out[k] = parts[k].fit.sq;
     out[k].indices = std::move(indices);
     out[k].segment = segment_id;

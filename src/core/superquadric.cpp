@@ -108,6 +108,12 @@ double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   return surfaceDistanceCanonical(sq, toCanonical(sq, p_world));
 }
 
+double signedSurfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
+  const Eigen::Vector3d q = toCanonical(sq, p_world);
+  const double d = surfaceDistanceCanonical(sq, q);
+  return logF(sq, q) < 0.0 ? -d : d;
+}
+
 double meanSurfaceDistance(const Superquadric& sq, const Points3d& points) {
   if (points.empty()) return 0.0;
   const Eigen::Matrix3d rt = sq.rotation().transpose();

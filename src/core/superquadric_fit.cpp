@@ -9,6 +9,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "novelty_detection/superquadric.h"
 #include "novelty_detection/superquadric_cost.h"
@@ -113,7 +114,7 @@ std::vector<Superquadric> SuperquadricFitter::initialGuesses(const Points3d& poi
 }
 
 FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric& initial,
-                                     int max_iterations) const {
+                                     int max_iterations, bool line_search) const {
   requirePoints(points, "SuperquadricFitter::refine");
   const PrincipalFrame f = principalFrame(points);
   const double h = std::max(f.halfExtent(), params_.min_size_m);
@@ -139,11 +140,18 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   } else if (params_.robust_loss == "cauchy") {
     loss = new ceres::CauchyLoss(loss_scale);
   }
-  for (const auto& p : points) {
-    const Eigen::Vector3d q = r0.transpose() * (p - c0);
-    problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(q)
-                                              : SuperquadricAnalyticResidual::Create(q),
-                             loss, a, e, w, t);
+  if (!loss && !params_.autodiff) {
+    // One block for all points: same cost and derivatives, far less per-block overhead.
+    Points3d q(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
+    problem.AddResidualBlock(new SuperquadricBatchResidual(q), nullptr, a, e, w, t);
+  } else {
+    for (const auto& p : points) {
+      const Eigen::Vector3d q = r0.transpose() * (p - c0);
+      problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(q)
+                                                : SuperquadricAnalyticResidual::Create(q),
+                               loss, a, e, w, t);
+    }
   }
   for (int k = 0; k < 3; ++k) {
     problem.SetParameterLowerBound(a, k, size_lo);
@@ -165,6 +173,9 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   options.gradient_tolerance = 1e-10;
   options.parameter_tolerance = 1e-8;
   options.num_threads = 1;
+  // With bounds, Ceres searches along each projected step (several extra evaluations per
+  // iteration); ranking fits skip it and take the projected step as it is.
+  if (!line_search) options.max_num_line_search_step_size_iterations = 0;
   options.minimizer_progress_to_stdout = false;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
@@ -196,20 +207,21 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   return result;
 }
 
-FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations) const {
+FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations,
+                                  bool line_search) const {
   requirePoints(points, "SuperquadricFitter::fit");
   const std::vector<Superquadric> guesses = initialGuesses(points);
   const Points3d screen = subsample(points, params_.screening_points);
   FitResult best;
   double best_error = std::numeric_limits<double>::infinity();
   for (const auto& guess : guesses) {
-    FitResult r = refine(screen, guess, params_.screening_iterations);
+    FitResult r = refine(screen, guess, params_.screening_iterations, line_search);
     if (r.mean_radial_distance < best_error) {
       best_error = r.mean_radial_distance;
       best = r;
     }
   }
-  return refine(points, best.sq, max_iterations);
+  return refine(points, best.sq, max_iterations, line_search);
 }
 
 }  // namespace novelty_detection

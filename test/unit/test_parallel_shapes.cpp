@@ -1,0 +1,221 @@
+// Speed work on shape retrieval, with known answers: the batched residual equals one residual
+// per point; results do not depend on the thread count (split and merge, shape retrieval,
+// whole pipeline); the residual-noise split criterion keeps a laser-swept cylinder whole.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <memory>
+#include <random>
+#include <stdexcept>
+
+#include "../../src/core/detail/parallel.h"
+#include "novelty_detection/pipeline.h"
+#include "novelty_detection/shape_retrieval.h"
+#include "novelty_detection/sim/scene.h"
+#include "novelty_detection/split_merge.h"
+#include "novelty_detection/superquadric.h"
+#include "novelty_detection/superquadric_cost.h"
+#include "superquadric_samples.h"
+
+using namespace novelty_detection;
+using samples::makeSq;
+
+namespace {
+
+Points3d personPoints() {
+  const Eigen::Vector3d sensor(-3.0, 0.4, 1.2);
+  const std::vector<Superquadric> parts = {
+      makeSq({0.18, 0.10, 0.28}, 0.3, 0.3, {0, 0, 0}, {0, 0, 1.2}),
+      makeSq({0.09, 0.09, 0.11}, 1.0, 1.0, {0, 0, 0}, {0, 0, 1.6}),
+      makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {0, -0.09, 0.45}),
+      makeSq({0.06, 0.06, 0.42}, 0.2, 1.0, {0, 0, 0}, {0, 0.09, 0.45})};
+  Points3d out;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    for (const auto& p : samples::noisySamples(parts[k], 700, 0.004, 20u + k, &sensor)) {
+      bool hidden = false;
+      for (std::size_t m = 0; m < parts.size(); ++m)
+        hidden = hidden || (m != k && insideOutside(parts[m], p) < 1.0);
+      if (!hidden) out.push_back(p);
+    }
+  }
+  return out;
+}
+
+/// The points of the one novelty of a simulated tilting-laser scene.
+Points3d objectPoints(sim::NoveltyKind kind, std::uint64_t seed, double noise_variance_m2) {
+  sim::SceneConfig cfg;
+  cfg.seed = seed;
+  cfg.novelty_kinds = {kind};
+  cfg.laser.noise_variance_m2 = noise_variance_m2;
+  const sim::ScenePair scene = sim::generateScenePair(cfg);
+  Points3d out;
+  if (scene.objects.empty()) return out;
+  for (std::size_t i = 0; i < scene.current.size(); ++i) {
+    if (scene.current_labels[i] != scene.objects.front().id) continue;
+    const auto& p = scene.current[i];
+    out.emplace_back(p.x, p.y, p.z);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<Eigen::Vector3d> q(37);
+    for (auto& p : q) p = Eigen::Vector3d(u(rng), u(rng), u(rng));
+    q[3].setZero();                         // the centre: guarded powers
+    q[4] = Eigen::Vector3d(0.0, 0.0, 0.5);  // on an axis
+    double a[3] = {0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng)};
+    double e[2] = {1.0 + 0.85 * u(rng), 1.0 + 0.85 * u(rng)};
+    const double scale = trial % 4 == 0 ? 1e-6 : 1.5;  // both branches of the rotation terms
+    double w[3] = {scale * u(rng), scale * u(rng), scale * u(rng)};
+    double t[3] = {0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
+    const double* params[4] = {a, e, w, t};
+    const SuperquadricBatchResidual batch(q);
+    ASSERT_EQ(batch.num_residuals(), 37);
+    std::vector<double> r(q.size()), ja(3 * q.size()), je(2 * q.size()), jw(3 * q.size()),
+        jt(3 * q.size());
+    double* jac[4] = {ja.data(), je.data(), jw.data(), jt.data()};
+    ASSERT_TRUE(batch.Evaluate(params, r.data(), jac));
+    std::vector<double> r_only(q.size());
+    ASSERT_TRUE(batch.Evaluate(params, r_only.data(), nullptr));
+    const int sizes[4] = {3, 2, 3, 3};
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      std::unique_ptr<ceres::CostFunction> one(SuperquadricAnalyticResidual::Create(q[i]));
+      double r1, j1[4][3];
+      double* jac1[4] = {j1[0], j1[1], j1[2], j1[3]};
+      ASSERT_TRUE(one->Evaluate(params, &r1, jac1));
+      const double tol = 1e-12 * (1.0 + std::abs(r1));
+      EXPECT_NEAR(r[i], r1, tol) << "point " << i;
+      EXPECT_EQ(r_only[i], r[i]);
+      for (int b = 0; b < 4; ++b) {
+        for (int c = 0; c < sizes[b]; ++c) {
+          const double got = jac[b][sizes[b] * i + c];
+          EXPECT_NEAR(got, j1[b][c], 1e-10 * (1.0 + std::abs(j1[b][c])))
+              << "point " << i << " block " << b << " index " << c;
+        }
+      }
+    }
+  }
+}
+
+TEST(ParallelFor, EveryItemOnceAndLowestExceptionRethrown) {
+  for (int threads : {1, 2, 5}) {
+    std::vector<int> hits(100, 0);
+    detail::parallelFor(100, threads, [&](int i) { ++hits[static_cast<std::size_t>(i)]; });
+    for (int h : hits) EXPECT_EQ(h, 1);
+    std::atomic<int> ran{0};
+    try {
+      detail::parallelFor(10, threads, [&](int i) {
+        ++ran;
+        if (i == 3 || i == 7) throw std::runtime_error("item " + std::to_string(i));
+      });
+      ADD_FAILURE() << "no exception";
+    } catch (const std::runtime_error& e) {
+      EXPECT_STREQ(e.what(), "item 3");
+    }
+    EXPECT_EQ(ran.load(), 10);  // the other items still ran
+  }
+  // Nested loops run serially inside a worker and still visit every item.
+  std::vector<int> inner(6, 0);
+  detail::parallelFor(2, 2, [&](int i) {
+    detail::parallelFor(3, 2, [&](int j) { ++inner[static_cast<std::size_t>(3 * i + j)]; });
+  });
+  for (int h : inner) EXPECT_EQ(h, 1);
+}
+
+TEST(SplitMerge, ResultDoesNotDependOnThreadCount) {
+  const Points3d pts = personPoints();
+  ASSERT_GT(pts.size(), 500u);
+  SplitMerge one{SuperquadricParams()};
+  one.setThreads(1);
+  const auto ref = one.run(pts);
+  ASSERT_GE(ref.size(), 2u);
+  for (int threads : {2, 3}) {
+    SplitMerge sm{SuperquadricParams()};
+    sm.setThreads(threads);
+    const auto got = sm.run(pts);
+    ASSERT_EQ(got.size(), ref.size()) << threads << " threads";
+    EXPECT_EQ(sm.stats().merge_fits, one.stats().merge_fits);
+    for (std::size_t k = 0; k < ref.size(); ++k) {
+      EXPECT_EQ(got[k].indices, ref[k].indices);
+      EXPECT_EQ(got[k].fit.sq.a, ref[k].fit.sq.a);
+      EXPECT_EQ(got[k].fit.sq.position, ref[k].fit.sq.position);
+      EXPECT_EQ(got[k].fit.mean_distance, ref[k].fit.mean_distance);
+    }
+  }
+}
+
+TEST(ShapeRetrieval, ResultDoesNotDependOnThreadCount) {
+  const Points3d pts = personPoints();
+  ShapeRetrieval serial{SuperquadricParams()}, parallel{SuperquadricParams()};
+  serial.setThreads(1);
+  parallel.setThreads(2);
+  const auto a = serial.recover(pts, subsample(pts, 200), 4);
+  const auto b = parallel.recover(pts, subsample(pts, 200), 4);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].indices, b[k].indices);
+    EXPECT_EQ(a[k].a, b[k].a);
+    EXPECT_EQ(a[k].euler, b[k].euler);
+    EXPECT_EQ(a[k].position, b[k].position);
+    EXPECT_EQ(a[k].residual, b[k].residual);
+  }
+}
+
+TEST(Pipeline, ResultDoesNotDependOnThreadCount) {
+  sim::SceneConfig cfg;
+  cfg.seed = 5;
+  cfg.novelty_kinds = {sim::NoveltyKind::kPerson, sim::NoveltyKind::kBox};
+  const sim::ScenePair s = sim::generateScenePair(cfg);
+  Result results[2];
+  for (int k = 0; k < 2; ++k) {
+    Params p;
+    p.compute.threads = k + 1;
+    Pipeline pipeline(p);
+    pipeline.setReference(s.reference);
+    results[k] = pipeline.detect(s.current);
+  }
+  EXPECT_EQ(results[0].labels, results[1].labels);
+  ASSERT_EQ(results[0].superquadrics.size(), results[1].superquadrics.size());
+  ASSERT_GE(results[0].segments.size(), 1u);
+  ASSERT_GE(results[0].superquadrics.size(), 1u);
+  for (std::size_t k = 0; k < results[0].superquadrics.size(); ++k) {
+    const Superquadric &a = results[0].superquadrics[k], &b = results[1].superquadrics[k];
+    EXPECT_EQ(a.segment, b.segment);
+    EXPECT_EQ(a.indices, b.indices);
+    EXPECT_EQ(a.a, b.a);
+    EXPECT_EQ(a.position, b.position);
+  }
+}
+
+TEST(ComputeParams, ThreadsResolveAndValidate) {
+  ComputeParams c;
+  EXPECT_GE(c.resolved(), 1);
+  EXPECT_LE(c.resolved(), 8);
+  c.threads = 3;
+  EXPECT_EQ(c.resolved(), 3);
+  c.threads = -1;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
+}
+
+// The split criterion compares a part's error with the noise seen in its own residuals: the
+// scan lines of a tilting laser are each planar, so a local plane's RMS misses range noise
+// and split a noisy cylinder into pieces; the residual noise keeps it whole.
+TEST(SplitMerge, LaserSweptCylinderStaysOnePart) {
+  for (std::uint64_t seed : {3u, 4u, 5u}) {
+    const Points3d pts = objectPoints(sim::NoveltyKind::kCylinder, seed, 1e-4);  // sigma 1 cm
+    ASSERT_GE(pts.size(), 100u) << "seed " << seed;
+    const SplitMerge sm{SuperquadricParams()};
+    const auto parts = sm.run(subsample(pts, SuperquadricParams().split_max_points));
+    EXPECT_EQ(parts.size(), 1u) << "seed " << seed << " leaves " << sm.stats().leaves
+                                << " plane noise " << sm.stats().plane_noise_m << " residual noise "
+                                << sm.stats().residual_noise_m;
+    // The residual noise is the range noise's normal component: 0.4..1.2 sigma.
+    EXPECT_GT(sm.stats().residual_noise_m, 0.004) << "seed " << seed;
+    EXPECT_LT(sm.stats().residual_noise_m, 0.012) << "seed " << seed;
+  }
+}
