@@ -158,7 +158,10 @@ TEST(PcdReader, HeaderBodyMismatchesGiveClearErrors) {
     f << header("binary_compressed", 2);
     const std::uint32_t sizes[2] = {4, 4000};
     f.write(reinterpret_cast<const char*>(sizes), 8);
-    f.write("\x03abc", 4);
+    f.write(
+        "\x03"
+        "abc",
+        4);  // a literal run of 4 bytes (not the escape \x03abc)
   }
   EXPECT_NE(errorOf(expands).find("expands to 4000 bytes"), std::string::npos);
 
