@@ -11,7 +11,8 @@
 # is older),
 # OUT_DIR/{ours,baseline}/scene_XXX (outputs and logs), OUT_DIR/{ours,baseline}.json and .md
 # (evaluate), OUT_DIR/viewpoint.md and bench/results/viewpoint.md (the table).
-# NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SKIP_BUILD=1 skips the build.
+# NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SKIP_BUILD=1 skips the build;
+# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 README_UPDATE=1
@@ -54,8 +55,12 @@ run_method() {  # name tool
     mkdir -p "$dir"
     rm -f "$dir"/labels.txt "$dir"/disappeared_labels.txt "$dir"/newly_visible.txt
     t0=$(date +%s%N)
+    local extra=()
+    if [ "$tool" = novelty_detect ] && [ -n "${NOVELTY_CONFIG:-}" ]; then
+      extra=(--config "$NOVELTY_CONFIG")
+    fi
     if "$BIN/$tool" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" --out "$dir" \
-      > "$dir/stdout.log" 2> "$dir/stderr.log"; then
+      "${extra[@]}" > "$dir/stdout.log" 2> "$dir/stderr.log"; then
       ms=$((($(date +%s%N) - t0) / 1000000))
       total_ms=$((total_ms + ms))
       ok=$((ok + 1))
