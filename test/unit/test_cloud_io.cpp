@@ -75,8 +75,8 @@ TEST(CloudIo, FuzzFindingsStayFixed) {
   for (const char* name :
        {"regression_float_size2", "regression_duplicate_fields", "regression_ply_negative_count",
         "regression_blank_header_lines", "regression_binary_in_ascii_body",
-        "regression_ascii_token_count", "regression_binary_body_columns", "pcd_ascii",
-        "pcd_binary", "ply_ascii"}) {
+        "regression_ascii_token_count", "regression_binary_body_columns", "pcd_ascii", "pcd_binary",
+        "ply_ascii"}) {
     std::ifstream in(dir + name, std::ios::binary);
     ASSERT_TRUE(in.good()) << name;
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
