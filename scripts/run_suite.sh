@@ -3,7 +3,8 @@
 #   scripts/run_suite.sh [N=30] [OUT_DIR=out/suite]
 # Writes OUT_DIR/scenes (simulated, reused when present), OUT_DIR/results/scene_XXX (the
 # detector's output and stderr.log), OUT_DIR/table.md, table.csv and scores.json.
-# Build first (scripts/build.sh). The suite seed is NOVELTY_SUITE_SEED (default 1).
+# Build first (scripts/build.sh). The suite seed is NOVELTY_SUITE_SEED (default 1);
+# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 N="${1:-30}"
@@ -12,6 +13,11 @@ SEED="${NOVELTY_SUITE_SEED:-1}"
 BIN="$WS/devel/lib/novelty_detection"
 SUITE="$OUT/scenes"
 RESULTS="$OUT/results"
+CONFIG_ARGS=()
+if [ -n "${NOVELTY_CONFIG:-}" ]; then
+  [ -r "$NOVELTY_CONFIG" ] || { log "NOVELTY_CONFIG: cannot read '$NOVELTY_CONFIG'"; exit 2; }
+  CONFIG_ARGS=(--config "$NOVELTY_CONFIG")
+fi
 case "$N" in '' | *[!0-9]*) log "N must be a positive integer, got '$N'"; exit 2 ;; esac
 for tool in simulate_scans evaluate; do
   [ -x "$BIN/$tool" ] || { log "missing $BIN/$tool: run scripts/build.sh first"; exit 1; }
@@ -42,7 +48,8 @@ else
     rm -f "$RESULTS/$name/labels.txt"
     t0=$(date +%s%N)
     if "$BIN/novelty_detect" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" \
-      --out "$RESULTS/$name" > "$RESULTS/$name/stdout.log" 2> "$RESULTS/$name/stderr.log"; then
+      --out "$RESULTS/$name" "${CONFIG_ARGS[@]}" \
+      > "$RESULTS/$name/stdout.log" 2> "$RESULTS/$name/stderr.log"; then
       ms=$((($(date +%s%N) - t0) / 1000000))
       total_ms=$((total_ms + ms))
       ok=$((ok + 1))
