@@ -92,6 +92,23 @@ class SplitMerge {
   const Stats& stats() const { return stats_; }
 
  private:
+  // Phases of run(): scale, noise and split in split_merge.cpp; merge, dissolution and
+  // boundary reassignment in split_merge_regroup.cpp.
+
+  /// LM iteration cap of the fits inside split and merge (they only rank candidates).
+  int innerIterations() const;
+  /// Ranking fit of the points at `indices` (subsampled to split_fit_points) from `start`.
+  FitResult refitPart(const Points3d& points, const Indices& indices,
+                      const Superquadric& start) const;
+  /// Greedy merge of the leaves `parts` with the memoized cost matrix; `adjacent`: their
+  /// topology; `exact`: the error of a fit that explains its points within the noise.
+  std::vector<SuperquadricPart> merge(const Points3d& points, std::vector<SuperquadricPart> parts,
+                                      std::vector<std::vector<char>> adjacent, double exact) const;
+  /// Removes junction pieces whose points the other parts' surfaces explain.
+  void dissolve(const Points3d& points, double exact, std::vector<SuperquadricPart>& parts) const;
+  /// Moves every point to the nearest part surface while the summed distance drops.
+  void reassignBoundaries(const Points3d& points, std::vector<SuperquadricPart>& parts) const;
+
   SuperquadricParams params_;
   SuperquadricFitter fitter_;
   bool memoize_ = true;

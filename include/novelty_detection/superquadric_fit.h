@@ -72,6 +72,11 @@ class SuperquadricFitter {
   const SuperquadricParams& params() const { return params_; }
 
  private:
+  /// refine() without the input check; measure = false leaves mean_distance and residual
+  /// at 0 (screening compares mean_radial_distance only).
+  FitResult solve(const Points3d& points, const Superquadric& initial, int max_iterations,
+                  bool line_search, bool measure) const;
+
   SuperquadricParams params_;
 };
 

@@ -1,6 +1,7 @@
 #include "novelty_detection/superquadric_cost.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -118,7 +119,8 @@ bool SuperquadricAnalyticResidual::Evaluate(double const* const* parameters, dou
 }
 
 SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q)
-    : q_(3, static_cast<Eigen::Index>(q.size())) {
+    : q_(3, static_cast<Eigen::Index>(q.size())),
+      terms_(static_cast<Eigen::Index>(q.size()), static_cast<Eigen::Index>(kTerms)) {
   for (std::size_t i = 0; i < q.size(); ++i) q_.col(static_cast<Eigen::Index>(i)) = q[i];
   set_num_residuals(static_cast<int>(q.size()));
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
@@ -126,19 +128,56 @@ SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Ve
 
 bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double* residuals,
                                          double** jacobians) const {
-  // pointResidual() for all points at once, as Eigen array expressions: the logs and exps,
-  // most of the cost, then run on SIMD packets.
-  using A = Eigen::ArrayXd;
+  // Ceres evaluates the cost at a candidate step and, when it accepts the step, the Jacobian
+  // at the same parameters: the terms (the logs and exps, most of the cost) are then reused.
+  constexpr int kSizes[4] = {3, 2, 3, 3};
+  bool same = cached_;
+  for (int b = 0, m = 0; b < 4; ++b) {
+    for (int k = 0; k < kSizes[b]; ++k, ++m) same = same && parameters[b][k] == last_[m];
+  }
+  const Eigen::Index n = q_.cols();
+  if (!same) {
+    for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
+      computeTerms(parameters, begin, std::min(kChunk, n - begin));
+    }
+    for (int b = 0, m = 0; b < 4; ++b) {
+      for (int k = 0; k < kSizes[b]; ++k, ++m) last_[m] = parameters[b][k];
+    }
+    cached_ = true;
+  }
+  Eigen::Map<Eigen::VectorXd>(residuals, n) = terms_.col(kResidual);
+  if (!jacobians) return true;
+  for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
+    double* chunk[4] = {nullptr, nullptr, nullptr, nullptr};
+    for (int b = 0; b < 4; ++b) {
+      if (jacobians[b]) chunk[b] = jacobians[b] + kSizes[b] * begin;
+    }
+    jacobianChunk(parameters, begin, std::min(kChunk, n - begin), chunk);
+  }
+  return true;
+}
+
+// Chunks of at most kChunk points: the temporaries live on the stack. (Heap arrays over all
+// points, freed and reallocated at every evaluation, made glibc return memory to the kernel
+// each time past its trim threshold: on a loaded machine the unmapping and page faults took
+// as much time as the arithmetic.)
+using ChunkArray = Eigen::Array<double, Eigen::Dynamic, 1, Eigen::ColMajor, 64, 1>;
+
+void SuperquadricBatchResidual::computeTerms(double const* const* parameters, Eigen::Index begin,
+                                             Eigen::Index n) const {
+  // pointResidual() for the chunk's points at once, as Eigen array expressions: the logs and
+  // exps then run on SIMD packets.
+  using A = ChunkArray;
+  static_assert(A::MaxRowsAtCompileTime == kChunk, "chunk size");
   const RotationTerms rt = rotationTerms(parameters[2]);
   const double* a = parameters[0];
   const double e1 = parameters[1][0], e2 = parameters[1][1];
   const double* t = parameters[3];
   const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
-  const Eigen::Index n = q_.cols();
   // p = Exp(w)^T (q - t) = d - sa (w x d) + sb w x (w x d).
-  const A dx = q_.row(0).transpose().array() - t[0];
-  const A dy = q_.row(1).transpose().array() - t[1];
-  const A dz = q_.row(2).transpose().array() - t[2];
+  const A dx = q_.row(0).segment(begin, n).transpose().array() - t[0];
+  const A dy = q_.row(1).segment(begin, n).transpose().array() - t[1];
+  const A dz = q_.row(2).segment(begin, n).transpose().array() - t[2];
   const A cx = wy * dz - wz * dy, cy = wz * dx - wx * dz, cz = wx * dy - wy * dx;
   const A px = dx - rt.sa * cx + rt.sb * (wy * cz - wz * cy);
   const A py = dy - rt.sa * cy + rt.sb * (wz * cx - wx * cz);
@@ -149,19 +188,44 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
   const A lx = rx.log() / e2, ly = ry.log() / e2, lb = rz.log() / e1;
   // Two log-sum-exps with their softmax weights (logSumExpWeights()).
   const A u1 = (-(lx - ly).abs()).exp(), s1 = 1.0 + u1;
-  const A wxw = (lx > ly).select(A::Ones(n), u1) / s1;
-  const A wyw = (lx > ly).select(u1, A::Ones(n)) / s1;
   const A lxy = lx.max(ly) + s1.log();
   const A la = (e2 / e1) * lxy;
   const A u2 = (-(la - lb).abs()).exp(), s2 = 1.0 + u2;
-  const A wa = (la > lb).select(A::Ones(n), u2) / s2;
-  const A wb = (la > lb).select(u2, A::Ones(n)) / s2;
   const A l = la.max(lb) + s2.log();
-  const double big_s = std::sqrt(a[0] * a[1] * a[2]);
   const A big_e = (e1 * l).exp();
-  Eigen::Map<A>(residuals, n) = big_s * (big_e - 1.0);
-  if (!jacobians) return true;
+  auto term = [&](Term k) { return terms_.col(k).segment(begin, n).array(); };
+  term(kPx) = px;
+  term(kPy) = py;
+  term(kPz) = pz;
+  term(kLx) = lx;
+  term(kLy) = ly;
+  term(kLb) = lb;
+  term(kLxy) = lxy;
+  term(kLa) = la;
+  term(kL) = l;
+  term(kWxw) = (lx > ly).select(A::Ones(n), u1) / s1;
+  term(kWyw) = (lx > ly).select(u1, A::Ones(n)) / s1;
+  term(kWa) = (la > lb).select(A::Ones(n), u2) / s2;
+  term(kWb) = (la > lb).select(u2, A::Ones(n)) / s2;
+  term(kBigE) = big_e;
+  term(kResidual) = std::sqrt(a[0] * a[1] * a[2]) * (big_e - 1.0);
+}
 
+void SuperquadricBatchResidual::jacobianChunk(double const* const* parameters, Eigen::Index begin,
+                                              Eigen::Index n, double** jacobians) const {
+  using A = ChunkArray;
+  const RotationTerms rt = rotationTerms(parameters[2]);
+  const double* a = parameters[0];
+  const double e1 = parameters[1][0];
+  const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
+  auto term = [&](Term k) { return terms_.col(k).segment(begin, n).array(); };
+  const A px = term(kPx), py = term(kPy), pz = term(kPz);
+  const A sx = px.square() / (a[0] * a[0]), sy = py.square() / (a[1] * a[1]);
+  const A sz = pz.square() / (a[2] * a[2]);
+  const A rx = sx + kSqTinySquared, ry = sy + kSqTinySquared, rz = sz + kSqTinySquared;
+  const A wxw = term(kWxw), wyw = term(kWyw), wa = term(kWa), wb = term(kWb);
+  const A big_e = term(kBigE);
+  const double big_s = std::sqrt(a[0] * a[1] * a[2]);
   const A k = big_s * e1 * big_e;  // dr/dL
   const A gx = k * wa * wxw * (2.0 / e1) * (px / (a[0] * a[0])) / rx;
   const A gy = k * wa * wyw * (2.0 / e1) * (py / (a[1] * a[1])) / ry;
@@ -180,8 +244,8 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
   }
   if (jacobians[1]) {
     const A se = big_s * big_e;
-    const A je0 = se * (l - wa * la - wb * lb);
-    const A je1 = se * wa * (lxy - wxw * lx - wyw * ly);
+    const A je0 = se * (term(kL) - wa * term(kLa) - wb * term(kLb));
+    const A je1 = se * wa * (term(kLxy) - wxw * term(kLx) - wyw * term(kLy));
     for (Eigen::Index i = 0; i < n; ++i) {
       jacobians[1][2 * i] = je0[i];
       jacobians[1][2 * i + 1] = je1[i];
@@ -212,7 +276,6 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
       jacobians[3][3 * i + 2] = jz[i];
     }
   }
-  return true;
 }
 
 }  // namespace novelty_detection

@@ -116,6 +116,11 @@ std::vector<Superquadric> SuperquadricFitter::initialGuesses(const Points3d& poi
 FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric& initial,
                                      int max_iterations, bool line_search) const {
   requirePoints(points, "SuperquadricFitter::refine");
+  return solve(points, initial, max_iterations, line_search, true);
+}
+
+FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& initial,
+                                    int max_iterations, bool line_search, bool measure) const {
   const PrincipalFrame f = principalFrame(points);
   const double h = std::max(f.halfExtent(), params_.min_size_m);
   const double size_lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
@@ -201,6 +206,7 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
   sq.points = static_cast<int>(points.size());
   result.iterations = static_cast<int>(summary.iterations.size());
   result.mean_radial_distance = meanRadialDistance(sq, points);
+  if (!measure) return result;
   result.mean_distance = meanSurfaceDistance(sq, points);
   result.residual = meanSquaredResidual(sq, points);
   sq.residual = result.residual;
@@ -215,7 +221,7 @@ FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations,
   FitResult best;
   double best_error = std::numeric_limits<double>::infinity();
   for (const auto& guess : guesses) {
-    FitResult r = refine(screen, guess, params_.screening_iterations, line_search);
+    FitResult r = solve(screen, guess, params_.screening_iterations, line_search, false);
     if (r.mean_radial_distance < best_error) {
       best_error = r.mean_radial_distance;
       best = r;

@@ -63,8 +63,10 @@ Points3d objectPoints(sim::NoveltyKind kind, std::uint64_t seed, double noise_va
 TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int trial = 0; trial < 20; ++trial) {
-    std::vector<Eigen::Vector3d> q(37);
+  for (int trial = 0; trial < 21; ++trial) {
+    // Within one chunk of points, exactly one, and several with a partial last one.
+    const std::size_t n = trial % 3 == 0 ? 37u : trial % 3 == 1 ? 64u : 150u;
+    std::vector<Eigen::Vector3d> q(n);
     for (auto& p : q) p = Eigen::Vector3d(u(rng), u(rng), u(rng));
     q[3].setZero();                         // the centre: guarded powers
     q[4] = Eigen::Vector3d(0.0, 0.0, 0.5);  // on an axis
@@ -75,13 +77,24 @@ TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
     double t[3] = {0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
     const double* params[4] = {a, e, w, t};
     const SuperquadricBatchResidual batch(q);
-    ASSERT_EQ(batch.num_residuals(), 37);
+    ASSERT_EQ(batch.num_residuals(), static_cast<int>(n));
     std::vector<double> r(q.size()), ja(3 * q.size()), je(2 * q.size()), jw(3 * q.size()),
         jt(3 * q.size());
     double* jac[4] = {ja.data(), je.data(), jw.data(), jt.data()};
     ASSERT_TRUE(batch.Evaluate(params, r.data(), jac));
     std::vector<double> r_only(q.size());
     ASSERT_TRUE(batch.Evaluate(params, r_only.data(), nullptr));
+    // Terms are reused at the same parameters and recomputed at others (Ceres' order: the
+    // cost at a candidate step, then the Jacobian there if accepted).
+    double a2[3] = {a[0] * 1.1, a[1], a[2]};
+    const double* other[4] = {a2, e, w, t};
+    std::vector<double> r_other(q.size()), r_again(q.size()), ja2(ja.size());
+    ASSERT_TRUE(batch.Evaluate(other, r_other.data(), nullptr));
+    EXPECT_NE(r_other, r);
+    double* jac2[4] = {ja2.data(), nullptr, nullptr, nullptr};
+    ASSERT_TRUE(batch.Evaluate(params, r_again.data(), jac2));
+    EXPECT_EQ(r_again, r);
+    EXPECT_EQ(ja2, ja);
     const int sizes[4] = {3, 2, 3, 3};
     for (std::size_t i = 0; i < q.size(); ++i) {
       std::unique_ptr<ceres::CostFunction> one(SuperquadricAnalyticResidual::Create(q[i]));
