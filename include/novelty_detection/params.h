@@ -20,7 +20,7 @@ struct PreprocessParams {
   bool outlier_removal = true;         ///< statistical outlier removal (Rusu et al. 2008)
   int outlier_k = 8;                   ///< neighbours for the mean distance
   double outlier_std_mul = 3.0;        ///< reject when mean distance > mu + std_mul * sigma
-  bool outlier_range_scaled = true;    ///< divide mean distances by the range from the sensor
+  bool outlier_range_scaled = false;   ///< divide mean distances by the range from the sensor
   bool ground_removal = true;          ///< RANSAC ground plane removal
   double ground_distance_m = 0.03;     ///< inlier distance to the plane (lower bound)
   double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
