@@ -349,11 +349,16 @@ Result Pipeline::detect(const Cloud& input) const {
       static_cast<float>(params_.segmentation.merge_floor_gap_factor * link_radius);
   for (std::size_t a = 0; a < np; ++a) {
     for (std::size_t b = a + 1; b < np; ++b) {
-      if (dominant[a] != dominant[b]) continue;
       const Eigen::Vector3f sep =
           (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
-      if (sep.norm() <= gap && sep.head<2>().norm() <= floor_gap)
-        parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+      if (sep.norm() > gap) continue;
+      // Same Gaussian, footprints close: one object seen through the gaps between lines.
+      // Any Gaussians, footprints overlapping, one piece above the other: one object cut
+      // by a gap between two tilt lines (a person's trunk and legs). Objects side by side
+      // share heights, so this never joins them.
+      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
+      const bool stacked = sep.head<2>().isZero() && sep.z() > 0.f;
+      if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
     }
   }
   std::vector<Indices> merged(np);

@@ -126,3 +126,20 @@ TEST(Pipeline, NeighbouringObjectsStaySeparateSegments) {
   for (const ObjectScore& o : sc.objects) EXPECT_GE(o.best_iou, 0.5) << "object " << o.id;
   EXPECT_TRUE(sc.success);
 }
+
+TEST(Pipeline, ObjectCutByATiltLineGapStaysOneSegment) {
+  // Suite scene 25 (suite seed 1) with the range-scaled outlier statistic: a person 4.7 m
+  // away whose trunk and legs are owned by different novel Gaussians and lie 5 cm apart
+  // vertically, between two tilt lines. They must form one segment (each half alone has
+  // IoU < 0.5 with the person; before the rule for stacked pieces they were two).
+  const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(25, 1));
+  Params params;
+  params.preprocess.outlier_range_scaled = true;
+  Pipeline pipeline{params};
+  pipeline.setReference(s.reference);
+  const SceneScore sc = scoreLabels(pipeline.detect(s.current).labels, s.current_labels);
+  ASSERT_EQ(sc.objects.size(), 3u);
+  for (const ObjectScore& o : sc.objects) EXPECT_GE(o.best_iou, 0.5) << "object " << o.id;
+  EXPECT_TRUE(sc.success);
+  EXPECT_EQ(sc.false_segments, 0);
+}
