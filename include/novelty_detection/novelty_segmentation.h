@@ -17,6 +17,7 @@
 #include <memory>
 #include <vector>
 
+#include "novelty_detection/params.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -34,6 +35,11 @@ class NearestNeighbourIndex {
   bool empty() const;
   /// Distance from p to the nearest indexed point (+inf when the index is empty).
   double distance(const Eigen::Vector3f& p) const;
+  /// Positions in the index (0 .. points - 1, in build order) of the indexed points within
+  /// radius_m of p, appended to `out` (unordered).
+  void withinIds(const Eigen::Vector3f& p, double radius_m, std::vector<int>* out) const;
+  /// The indexed point with position `id` in the index.
+  Eigen::Vector3f point(int id) const;
 
  private:
   struct Impl;
@@ -48,6 +54,20 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
 /// radius used.
 std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
                                     int min_points, double* link_radius_m = nullptr);
+
+/// Segments of novel points (`points` ascending, `owner[k]` the most probable novel Gaussian
+/// of points[k], in [0, num_gaussians)): connected pieces (linkComponents with
+/// params.link_factor); pieces whose points mostly belong to the same novel Gaussian and whose
+/// bounding boxes lie within merge_gap_factor link radii (and their footprints on the floor
+/// within merge_floor_gap_factor) are one object seen through the gaps between tilt lines and
+/// merge (union-find); two objects side by side that share a Gaussian stay apart. Pieces of
+/// any Gaussians stacked one above the other (footprints overlapping, vertical gap within
+/// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines. Segments
+/// under min_segment_points are dropped; largest first. `link_radius_m` gets the link radius.
+std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
+                                        const std::vector<int>& owner, int num_gaussians,
+                                        const SegmentationParams& params,
+                                        double* link_radius_m = nullptr);
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).

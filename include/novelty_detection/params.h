@@ -152,6 +152,12 @@ struct SegmentationParams {
   double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
   bool visibility_check = true;          ///< novel points must lie where the map saw through
   bool hidden_unexplained = false;       ///< points hidden from the map may be novel if unexplained
+  bool hidden_segments = true;           ///< segments hidden from the map may be novel (rule below)
+  double hidden_ring_factor = 4.0;       ///< map structure within factor * tau of the segment
+  double hidden_plane_factor = 0.5;      ///< ... lies on its plane within factor * tau
+  double hidden_max_coplanar = 0.25;     ///< continuation of the map when this share is coplanar
+  double hidden_outline_factor = 2.0;    ///< outline ring of factor * tau around it (current view)
+  double hidden_min_free_edge = 0.1;     ///< min share of outline rays reaching past its plane
 
   template <class F>
   void visit(F&& f) {
@@ -181,6 +187,26 @@ struct SegmentationParams {
     f("hidden_unexplained", hidden_unexplained,
       "a point the reference could not see is still novel when the reference mixture does not "
       "explain it (density below the map_likelihood_quantile of the map's own points)");
+    f("hidden_segments", hidden_segments,
+      "a segment of candidates hidden from the reference is novel when it is mostly occluded, "
+      "a plane patch, not a coplanar continuation of the map structure around it and has "
+      "free edges in the current view (a door leaf swung into space the old leaf hid; rule "
+      "in hidden_segments.h); a revealed wall is none of the last two");
+    f("hidden_ring_factor", hidden_ring_factor,
+      "hidden segments: reference structure (no ground, not disappeared) within "
+      "hidden_ring_factor * tau of the segment is what it could continue");
+    f("hidden_plane_factor", hidden_plane_factor,
+      "hidden segments: a structure point within hidden_plane_factor * tau of the segment's "
+      "plane continues it");
+    f("hidden_max_coplanar", hidden_max_coplanar,
+      "hidden segments: the segment continues the map (revealed, not novel) when at least "
+      "this share of the structure around it lies on its plane");
+    f("hidden_outline_factor", hidden_outline_factor,
+      "hidden segments: the current sweep's rays within hidden_outline_factor * tau (at the "
+      "segment's range) around the segment form its outline");
+    f("hidden_min_free_edge", hidden_min_free_edge,
+      "hidden segments: novel only when at least this share of the outline rays that reach "
+      "its plane or beyond reach past it (free edges: it stands in space)");
   }
   void validate() const;
 };

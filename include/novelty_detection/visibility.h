@@ -31,6 +31,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -66,6 +67,23 @@ class RangeImage {
   Visibility classify(const Eigen::Vector3f& p, double margin_m,
                       Neighbourhood mode = Neighbourhood::kWindow) const;
 
+  /// Cell of the direction d (from the origin) and its length; false outside the image.
+  bool cellOf(const Eigen::Vector3f& d, int* col, int* row, float* range) const;
+  /// [near, far] ranges of cell (col, row) after filling; false when it has no return.
+  bool cellRange(int col, int row, float* near, float* far) const {
+    if (cells_.empty() || row < 0 || row >= rows_) return false;
+    const Cell& c = cells_[static_cast<std::size_t>(row) * cols_ + ((col % cols_) + cols_) % cols_];
+    *near = c.near;
+    *far = c.far;
+    return c.near <= c.far;
+  }
+  /// Unit direction of the centre of cell (col, row).
+  Eigen::Vector3f cellDirection(int col, int row) const {
+    const double az = (col + 0.5) * cell_rad_ - M_PI, el = el_min_ + (row + 0.5) * cell_rad_;
+    return Eigen::Vector3f(static_cast<float>(std::cos(el) * std::cos(az)),
+                           static_cast<float>(std::cos(el) * std::sin(az)),
+                           static_cast<float>(std::sin(el)));
+  }
   const Eigen::Vector3f& origin() const { return origin_; }
   double cellRad() const { return cell_rad_; }
   int fillRows() const { return fill_rows_; }  ///< half height of the fill window [cells]
@@ -78,7 +96,6 @@ class RangeImage {
     float near = std::numeric_limits<float>::infinity();  ///< nearest return [m]
     float far = 0.f;  ///< farthest return [m]; near > far: no return (unknown)
   };
-  bool cellOf(const Eigen::Vector3f& d, int* col, int* row, float* range) const;
 
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
   double cell_rad_ = 0.0;
@@ -108,6 +125,8 @@ inline RangeImage::Config rangeImageConfig(const VisibilityParams& p) {
 ///   its density under Gamma is below the map_likelihood_quantile of the map's own points),
 ///   e.g. a door leaf swung into space the old leaf hid;
 /// - without a reference viewpoint (`have_visibility` false): novel unless explained.
+/// Segments of the points this calls newly visible may still be novel as a whole (a door
+/// leaf swung into space its old position hid): see hidden_segments.h.
 inline bool novelCandidate(bool have_visibility, Visibility v, bool explained,
                            bool hidden_unexplained) {
   if (!have_visibility) return !explained;

@@ -52,6 +52,21 @@ double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
   return std::sqrt(static_cast<double>(d2[0]));
 }
 
+void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
+                                      std::vector<int>* out) const {
+  if (empty() || !(radius_m > 0)) return;
+  PointT q(p.x(), p.y(), p.z());
+  std::vector<int> idx;
+  std::vector<float> d2;
+  if (impl_->tree.radiusSearch(q, radius_m, idx, d2) > 0)
+    out->insert(out->end(), idx.begin(), idx.end());
+}
+
+Eigen::Vector3f NearestNeighbourIndex::point(int id) const {
+  const PointT& q = (*impl_->points)[id];
+  return Eigen::Vector3f(q.x, q.y, q.z);
+}
+
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
   distances.erase(std::remove_if(distances.begin(), distances.end(),
                                  [](double d) { return !std::isfinite(d); }),
@@ -115,6 +130,65 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
   std::stable_sort(out.begin(), out.end(),
                    [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
   return out;
+}
+
+std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
+                                        const std::vector<int>& owner, int num_gaussians,
+                                        const SegmentationParams& params, double* link_radius_m) {
+  double link_radius = 0.0;
+  const std::vector<Indices> pieces =
+      linkComponents(cloud, points, params.link_factor, 1, &link_radius);
+  if (link_radius_m) *link_radius_m = link_radius;
+  const std::size_t np = pieces.size();
+  std::vector<int> dominant(np), parent(np);
+  std::vector<Eigen::Vector3f> lo(np), hi(np);
+  for (std::size_t a = 0; a < np; ++a) {
+    std::vector<int> votes(static_cast<std::size_t>(std::max(0, num_gaussians)), 0);
+    lo[a].setConstant(std::numeric_limits<float>::infinity());
+    hi[a] = -lo[a];
+    for (int i : pieces[a]) {
+      const auto it = std::lower_bound(points.begin(), points.end(), i);
+      ++votes[owner[it - points.begin()]];
+      lo[a] = lo[a].cwiseMin(cloud[i].getVector3fMap());
+      hi[a] = hi[a].cwiseMax(cloud[i].getVector3fMap());
+    }
+    dominant[a] = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+    parent[a] = static_cast<int>(a);
+  }
+  auto find = [&parent](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
+  const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
+  for (std::size_t a = 0; a < np; ++a) {
+    for (std::size_t b = a + 1; b < np; ++b) {
+      const Eigen::Vector3f sep =
+          (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
+      if (sep.norm() > gap) continue;
+      // Same Gaussian, footprints close: one object seen through the gaps between lines.
+      // Any Gaussians, footprints overlapping, one piece above the other: one object cut
+      // by a gap between two tilt lines (a person's trunk and legs). Objects side by side
+      // share heights, so this never joins them.
+      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
+      const bool stacked = sep.head<2>().isZero() && sep.z() > 0.f;
+      if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+    }
+  }
+  std::vector<Indices> merged(np);
+  for (std::size_t a = 0; a < np; ++a) {
+    Indices& m = merged[find(static_cast<int>(a))];
+    m.insert(m.end(), pieces[a].begin(), pieces[a].end());
+  }
+  std::vector<Indices> comps;
+  for (Indices& c : merged) {
+    if (c.empty() || static_cast<int>(c.size()) < params.min_segment_points) continue;
+    std::sort(c.begin(), c.end());
+    comps.push_back(std::move(c));
+  }
+  std::stable_sort(comps.begin(), comps.end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  return comps;
 }
 
 void labelDuplicates(const Indices& duplicates, const Indices& duplicate_of,

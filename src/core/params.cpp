@@ -69,6 +69,11 @@ void SegmentationParams::validate() const {
   requireRange("segmentation/merge_floor_gap_factor", merge_floor_gap_factor, 0.0, 1000.0);
   requireRange("segmentation/min_segment_points", min_segment_points, 1, 100000000);
   requireRange("segmentation/map_likelihood_quantile", map_likelihood_quantile, 0.0, 1.0);
+  requireRange("segmentation/hidden_ring_factor", hidden_ring_factor, 0.0, 1000.0);
+  requireRange("segmentation/hidden_plane_factor", hidden_plane_factor, 0.0, 1000.0);
+  requireRange("segmentation/hidden_max_coplanar", hidden_max_coplanar, 0.0, 1.0);
+  requireRange("segmentation/hidden_outline_factor", hidden_outline_factor, 0.0, 1000.0);
+  requireRange("segmentation/hidden_min_free_edge", hidden_min_free_edge, 0.0, 1.0);
 }
 
 void VisibilityParams::validate() const {

@@ -11,6 +11,7 @@
 #include "novelty_detection/alignment.h"
 #include "novelty_detection/disappearance.h"
 #include "novelty_detection/gmm.h"
+#include "novelty_detection/hidden_segments.h"
 #include "novelty_detection/multiscale_tree.h"
 #include "novelty_detection/novelty_segmentation.h"
 #include "novelty_detection/novelty_selection.h"
@@ -21,12 +22,13 @@
 namespace novelty_detection {
 
 struct ReferenceModel {
-  Cloud cloud;                   ///< as given
-  Gmm gmm;                       ///< Gamma
-  NearestNeighbourIndex points;  ///< every finite reference point (ground included)
-  RangeImage visibility;         ///< free / occupied / unknown seen from its viewpoint
-  Indices kept;                  ///< points that may disappear (no ground, no outliers)
-  AlignmentReference planes;     ///< map planes for the fine alignment (when enabled)
+  Cloud cloud;                      ///< as given
+  Gmm gmm;                          ///< Gamma
+  NearestNeighbourIndex points;     ///< every finite reference point (ground included)
+  NearestNeighbourIndex structure;  ///< the points of `kept`, in that order
+  RangeImage visibility;            ///< free / occupied / unknown seen from its viewpoint
+  Indices kept;                     ///< points that may disappear (no ground, no outliers)
+  AlignmentReference planes;        ///< map planes for the fine alignment (when enabled)
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
   /// +inf when the check is off (no point counts as explained).
@@ -170,6 +172,7 @@ void Pipeline::setReference(const Cloud& reference) {
   if (!origin.isZero() && origin.allFinite())
     model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params_.visibility));
   model->kept = s.pre.kept;
+  if (params_.segmentation.hidden_segments) model->structure.build(reference, s.pre.kept);
   if (params_.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
     const std::size_t stride = std::max<std::size_t>(1, s.pre.kept.size() / 5000);
     std::vector<int> sample;
@@ -259,6 +262,9 @@ Result Pipeline::detect(const Cloud& input) const {
   // ChoosePtfromGaussian: posterior mass of the novel Gaussians, then the distance check.
   Indices novel_points;
   std::vector<int> owner;  // most probable novel Gaussian per kept novel point
+  Indices hidden_points;   // far candidates the point rule calls newly visible
+  std::vector<int> hidden_owner;
+  std::vector<Visibility> hidden_vis;
   if (!sel.novel.empty()) {
     // Posteriors of the representatives first: only points of clusters with some novel
     // posterior mass are evaluated one by one (a small fraction of the sweep).
@@ -309,71 +315,46 @@ Result Pipeline::detect(const Cloud& input) const {
                                                          RangeImage::Neighbourhood::kOwnCell)
                                : Visibility::kUnknown;
       if (!novelCandidate(use_visibility, v, ll[i] >= ref.explained_log_density,
-                          params_.segmentation.hidden_unexplained))
+                          params_.segmentation.hidden_unexplained)) {
+        if (use_visibility) {
+          hidden_points.push_back(far_points[i]);
+          hidden_owner.push_back(far_owner[i]);
+          hidden_vis.push_back(v);
+        }
         continue;
+      }
       novel_points.push_back(far_points[i]);
       owner.push_back(far_owner[i]);
     }
   }
   result.point_counts.emplace_back("novel_points", novel_points.size());
-  // Connected pieces of novel points. Pieces whose points mostly belong to the same novel
-  // Gaussian and whose bounding boxes lie within merge_gap_factor link radii (and their
-  // footprints on the floor within merge_floor_gap_factor) are one object seen through the
-  // gaps between tilt lines: merge them (union-find). Two objects side by side that share a
-  // Gaussian stay apart.
+  // Segments (novelty_segmentation.h: linked pieces, merged per novel Gaussian).
   double link_radius = 0.0;
-  std::vector<Indices> pieces =
-      linkComponents(current, novel_points, params_.segmentation.link_factor, 1, &link_radius);
-  const std::size_t np = pieces.size();
-  std::vector<int> dominant(np), parent(np);
-  std::vector<Eigen::Vector3f> lo(np), hi(np);
-  for (std::size_t a = 0; a < np; ++a) {
-    std::vector<int> votes(result.current_gmm.size(), 0);
-    lo[a].setConstant(std::numeric_limits<float>::infinity());
-    hi[a] = -lo[a];
-    for (int i : pieces[a]) {
-      const auto it = std::lower_bound(novel_points.begin(), novel_points.end(), i);
-      ++votes[owner[it - novel_points.begin()]];
-      lo[a] = lo[a].cwiseMin(point3f(current[i]));
-      hi[a] = hi[a].cwiseMax(point3f(current[i]));
+  const int num_gaussians = static_cast<int>(result.current_gmm.size());
+  std::vector<Indices> comps = segmentNovelPoints(current, novel_points, owner, num_gaussians,
+                                                  params_.segmentation, &link_radius);
+  std::vector<int> owner_of(current.size(), -1);
+  for (std::size_t k = 0; k < novel_points.size(); ++k) owner_of[novel_points[k]] = owner[k];
+  timer.lap("segmentation");
+  // Disappearances before the hidden segments: the rule skips the reference points that left.
+  const bool checked_disappearances =
+      findDisappearances(params_, ref.cloud, ref.kept, current, tau, &result);
+  if (checked_disappearances) timer.lap("disappearances");
+  if (params_.segmentation.hidden_segments && !hidden_points.empty()) {
+    std::vector<std::uint8_t> gone(ref.kept.size(), 0);  // per structure point
+    for (std::size_t k = 0; k < ref.kept.size(); ++k)
+      gone[k] = result.disappeared_labels[ref.kept[k]] > 0;
+    for (Indices& seg : novelHiddenSegments(current, hidden_points, hidden_owner, hidden_vis,
+                                            num_gaussians, ref.structure, gone, tau, params_)) {
+      for (int i : seg)
+        owner_of[i] = hidden_owner[std::lower_bound(hidden_points.begin(), hidden_points.end(), i) -
+                                   hidden_points.begin()];
+      comps.push_back(std::move(seg));
     }
-    dominant[a] = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
-    parent[a] = static_cast<int>(a);
+    std::stable_sort(comps.begin(), comps.end(),
+                     [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+    timer.lap("hidden_segments");
   }
-  auto find = [&parent](int a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  };
-  const float gap = static_cast<float>(params_.segmentation.merge_gap_factor * link_radius);
-  const float floor_gap =
-      static_cast<float>(params_.segmentation.merge_floor_gap_factor * link_radius);
-  for (std::size_t a = 0; a < np; ++a) {
-    for (std::size_t b = a + 1; b < np; ++b) {
-      const Eigen::Vector3f sep =
-          (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
-      if (sep.norm() > gap) continue;
-      // Same Gaussian, footprints close: one object seen through the gaps between lines.
-      // Any Gaussians, footprints overlapping, one piece above the other: one object cut
-      // by a gap between two tilt lines (a person's trunk and legs). Objects side by side
-      // share heights, so this never joins them.
-      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
-      const bool stacked = sep.head<2>().isZero() && sep.z() > 0.f;
-      if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
-    }
-  }
-  std::vector<Indices> merged(np);
-  for (std::size_t a = 0; a < np; ++a) {
-    Indices& m = merged[find(static_cast<int>(a))];
-    m.insert(m.end(), pieces[a].begin(), pieces[a].end());
-  }
-  std::vector<Indices> comps;
-  for (Indices& c : merged) {
-    if (c.empty() || static_cast<int>(c.size()) < params_.segmentation.min_segment_points) continue;
-    std::sort(c.begin(), c.end());
-    comps.push_back(std::move(c));
-  }
-  std::stable_sort(comps.begin(), comps.end(),
-                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
   std::vector<double> decrease(result.current_gmm.size(), 0.0);
   for (std::size_t t = 0; t < sel.novel.size(); ++t) decrease[sel.novel[t]] = sel.decrease[t];
   for (const Indices& c : comps) {
@@ -381,8 +362,7 @@ Result Pipeline::detect(const Cloud& input) const {
     std::vector<int> votes(result.current_gmm.size(), 0);
     for (int i : seg.indices) {
       result.labels[i] = seg.id;
-      const auto it = std::lower_bound(novel_points.begin(), novel_points.end(), i);
-      ++votes[owner[it - novel_points.begin()]];
+      ++votes[owner_of[i]];
     }
     for (std::size_t k = 0; k < votes.size(); ++k) {
       if (votes[k] > 0) {
@@ -399,15 +379,12 @@ Result Pipeline::detect(const Cloud& input) const {
         for (const auto& seg : result.segments) n += seg.indices.size();
         return n;
       }());
-  timer.lap("segmentation");
   if (params_.visibility.newly_visible) {
     result.newly_visible =
         newlyVisible(current, result.labels, ref.visibility, params_.visibility.margin_factor * tau,
                      tau, [&ref](const Eigen::Vector3f& p) { return ref.points.distance(p); });
     timer.lap("newly_visible");
   }
-  if (findDisappearances(params_, ref.cloud, ref.kept, current, tau, &result))
-    timer.lap("disappearances");
 
   // Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
   // the coarse points. A failed fit never loses the detection.

@@ -1,0 +1,84 @@
+// Segment-level rule for novelty candidates the reference could not see (ROS-free).
+//
+// The point rule of visibility.h (novelCandidate) calls a candidate the reference never
+// observed (occluded, out of view) newly visible, not novel: a wall revealed behind a moved
+// box. A door leaf swung into space that the old leaf hid is, point by point, the same case.
+// Whole segments tell them apart. A segment of such candidates (linked and merged like the
+// novelty segments) is novel when all of these hold:
+// 1. the reference saw something in front of most of its points (occluded, not out of view
+//    or about there: nothing is known of what it never looked at);
+// 2. it is a surface patch: its second principal spread exceeds tau, so it has a plane
+//    (normal = least principal axis), and its thickness across that plane (least principal
+//    spread) is at most tau (noise-sized);
+// 3. it is not a continuation of mapped structure: of the reference points (no ground, not
+//    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
+//    that radius), at least one exists and fewer than
+//    max_coplanar lie within plane_factor * tau of its plane (a revealed wall continues the
+//    mapped wall around it; a door leaf at a new angle meets the map only along its hinge);
+// 4. it stands in space: in the current sweep's own range image, among the cells within
+//    outline_factor * tau (at the segment's median range) around the segment's cells, the
+//    rays that reach past its plane by more than the visibility margin are at least
+//    min_free_edge of those that reach past or end on it (a door leaf has free edges
+//    beyond which the sensor sees farther; a revealed background surface has none).
+// Every length scales with tau (the data's noise and sampling distance) and the sweep's
+// angular spacing. Without a current sensor origin, test 4 cannot be made: nothing revives.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+#include "novelty_detection/novelty_segmentation.h"
+#include "novelty_detection/params.h"
+#include "novelty_detection/types.h"
+#include "novelty_detection/visibility.h"
+
+namespace novelty_detection {
+
+/// The measurements behind the rule, for one segment.
+struct HiddenSegmentEvidence {
+  int points = 0;
+  int occluded = 0;          ///< points the reference saw something in front of
+  double width_m = 0.0;      ///< second principal standard deviation
+  double thickness_m = 0.0;  ///< least principal standard deviation (across the plane)
+  int ring = 0;              ///< reference structure points around it (not disappeared)
+  int ring_coplanar = 0;     ///< of those, on its plane
+  int past = 0;              ///< outline rays of the current sweep that reach past its plane
+  int on = 0;                ///< outline rays that end on its plane
+};
+
+/// What the rule needs about the scene.
+struct HiddenSegmentContext {
+  const Cloud* current = nullptr;
+  const NearestNeighbourIndex* structure = nullptr;  ///< reference points, no ground
+  const std::vector<std::uint8_t>* gone = nullptr;   ///< per structure point: disappeared
+  const RangeImage* current_image = nullptr;         ///< the current sweep from its origin
+  double tau = 0.0;                                  ///< novelty distance [m]
+  double margin_m = 0.0;                             ///< visibility margin [m]
+};
+
+/// Measures `segment` (indices into *ctx.current; vis[k] the reference visibility of
+/// segment[k]).
+HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                                           const std::vector<Visibility>& vis,
+                                           const SegmentationParams& params);
+
+/// The rule of the header comment on measured evidence.
+bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
+                          const SegmentationParams& params);
+
+/// The segments of `hidden` (ascending indices into `current` of the candidates the point
+/// rule called newly visible; hidden_owner / hidden_vis per entry: most probable novel
+/// Gaussian in [0, num_gaussians), reference visibility) that the rule calls novel. They are
+/// linked and merged like the novel points (segmentNovelPoints). `structure` indexes the
+/// reference's points without ground, `gone` flags its disappeared ones (same order). Needs
+/// the current sensor origin (current.sensor_origin_); without it returns nothing.
+std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
+                                         const std::vector<int>& hidden_owner,
+                                         const std::vector<Visibility>& hidden_vis,
+                                         int num_gaussians, const NearestNeighbourIndex& structure,
+                                         const std::vector<std::uint8_t>& gone, double tau,
+                                         const Params& params);
+
+}  // namespace novelty_detection

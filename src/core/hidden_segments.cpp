@@ -1,0 +1,208 @@
+#include "novelty_detection/hidden_segments.h"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+
+namespace novelty_detection {
+namespace {
+
+struct Plane {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d sd = Eigen::Vector3d::Zero();  ///< principal standard deviations, ascending
+};
+
+Plane fitPlane(const Cloud& cloud, const Indices& segment) {
+  Plane p;
+  for (int i : segment) p.centroid += cloud[i].getVector3fMap().cast<double>();
+  p.centroid /= static_cast<double>(segment.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i : segment) {
+    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - p.centroid;
+    cov += d * d.transpose();
+  }
+  cov /= static_cast<double>(segment.size());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  p.normal = es.eigenvectors().col(0);
+  p.sd = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return p;
+}
+
+// Test 3: reference structure around the segment, and how much of it lies on its plane. The
+// segment is queried at one point per voxel of half the ring radius (the ring is the
+// structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
+void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
+                 const SegmentationParams& params, HiddenSegmentEvidence* e) {
+  std::unordered_set<long long> voxels;
+  std::vector<int> ids;
+  std::vector<char> seen;
+  const double radius = params.hidden_ring_factor * ctx.tau;
+  const double on_plane = params.hidden_plane_factor * ctx.tau;
+  const double voxel = std::max(0.5 * radius, 1e-3);
+  for (int i : segment) {
+    const Eigen::Vector3f p = (*ctx.current)[i].getVector3fMap();
+    const Eigen::Vector3d v = (p.cast<double>() / voxel).array().floor();
+    const long long key = (static_cast<long long>(v.x()) * 73856093LL) ^
+                          (static_cast<long long>(v.y()) * 19349663LL) ^
+                          (static_cast<long long>(v.z()) * 83492791LL);
+    if (!voxels.insert(key).second) continue;
+    ids.clear();
+    ctx.structure->withinIds(p, radius, &ids);
+    for (int id : ids) {
+      if (id >= static_cast<int>(seen.size())) seen.resize(id + 1, 0);
+      if (seen[id]) continue;
+      seen[id] = 1;
+      if (ctx.gone && static_cast<std::size_t>(id) < ctx.gone->size() && (*ctx.gone)[id]) continue;
+      ++e->ring;
+      const Eigen::Vector3d q = ctx.structure->point(id).cast<double>();
+      if (std::abs(plane.normal.dot(q - plane.centroid)) <= on_plane) ++e->ring_coplanar;
+    }
+  }
+}
+
+// Test 4: the current sweep's rays around the segment's outline against its plane.
+void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
+                    const SegmentationParams& params, HiddenSegmentEvidence* e) {
+  const RangeImage& image = *ctx.current_image;
+  const int cols = image.cols();
+  std::vector<std::pair<int, int>> cells;  // (unwrapped column, row) of the segment's points
+  std::vector<float> ranges;
+  int col0 = -1;
+  for (int i : segment) {
+    int col = 0, row = 0;
+    float r = 0.f;
+    if (!image.cellOf((*ctx.current)[i].getVector3fMap() - image.origin(), &col, &row, &r))
+      continue;
+    if (col0 < 0) col0 = col;
+    // Columns relative to the first one, in (-cols/2, cols/2]: no seam at azimuth +-pi.
+    int dc = ((col - col0) % cols + cols) % cols;
+    if (dc > cols / 2) dc -= cols;
+    cells.emplace_back(dc, row);
+    ranges.push_back(r);
+  }
+  if (ranges.empty()) return;
+  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
+  const double range = std::max<double>(ranges[ranges.size() / 2], 1e-3);
+  // Ring width in cells, bounded (a degenerate tau must not make the grid below huge).
+  const double k_max = std::max(1, std::min(cols, image.rows()) / 8);
+  const double k_cells =
+      std::ceil(params.hidden_outline_factor * ctx.tau / (range * std::max(image.cellRad(), 1e-9)));
+  const int k = static_cast<int>(std::isfinite(k_cells) ? std::clamp(k_cells, 1.0, k_max) : k_max);
+  // The segment's cells on a local grid padded by k, dilated by a (2k+1)^2 box (summed-area
+  // table): the ring is the dilation minus the segment's own cells.
+  int c_lo = cells[0].first, c_hi = c_lo, r_lo = cells[0].second, r_hi = r_lo;
+  for (const auto& [c, r] : cells) {
+    c_lo = std::min(c_lo, c), c_hi = std::max(c_hi, c);
+    r_lo = std::min(r_lo, r), r_hi = std::max(r_hi, r);
+  }
+  const int w = c_hi - c_lo + 1 + 2 * k, h = r_hi - r_lo + 1 + 2 * k;
+  if (static_cast<double>(w) * h > 4.0 * cols * image.rows()) return;  // no useful outline
+  std::vector<char> own(static_cast<std::size_t>(w) * h, 0);
+  for (const auto& [c, r] : cells)
+    own[static_cast<std::size_t>(r - r_lo + k) * w + (c - c_lo + k)] = 1;
+  std::vector<int> sat(static_cast<std::size_t>(w + 1) * (h + 1), 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      sat[static_cast<std::size_t>(y + 1) * (w + 1) + x + 1] =
+          own[static_cast<std::size_t>(y) * w + x] +
+          sat[static_cast<std::size_t>(y) * (w + 1) + x + 1] +
+          sat[static_cast<std::size_t>(y + 1) * (w + 1) + x] -
+          sat[static_cast<std::size_t>(y) * (w + 1) + x];
+  auto boxSum = [&](int x0, int y0, int x1, int y1) {  // inclusive, clamped
+    x0 = std::max(x0, 0), y0 = std::max(y0, 0), x1 = std::min(x1, w - 1), y1 = std::min(y1, h - 1);
+    return sat[static_cast<std::size_t>(y1 + 1) * (w + 1) + x1 + 1] -
+           sat[static_cast<std::size_t>(y0) * (w + 1) + x1 + 1] -
+           sat[static_cast<std::size_t>(y1 + 1) * (w + 1) + x0] +
+           sat[static_cast<std::size_t>(y0) * (w + 1) + x0];
+  };
+  std::vector<std::pair<int, int>> ring;  // (column, row) in the image
+  for (int y = 0; y < h; ++y) {
+    const int row = r_lo - k + y;
+    if (row < 0 || row >= image.rows()) continue;
+    for (int x = 0; x < w; ++x) {
+      if (own[static_cast<std::size_t>(y) * w + x] || boxSum(x - k, y - k, x + k, y + k) == 0)
+        continue;
+      ring.emplace_back(((col0 + c_lo - k + x) % cols + cols) % cols, row);
+    }
+  }
+  const Eigen::Vector3d o = image.origin().cast<double>();
+  const double offset = plane.normal.dot(plane.centroid - o);
+  for (const auto& [col, row] : ring) {
+    float near = 0.f, far = 0.f;
+    if (!image.cellRange(col, row, &near, &far)) continue;
+    const double nu = plane.normal.dot(image.cellDirection(col, row).cast<double>());
+    if (std::abs(nu) < 1e-3) continue;  // the ray runs along the plane
+    const double t = offset / nu;       // range at which the ray meets the plane
+    if (t <= 0 || near > t + ctx.margin_m) {
+      ++e->past;
+    } else if (far >= t - ctx.margin_m) {
+      ++e->on;
+    }
+  }
+}
+
+}  // namespace
+
+HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                                           const std::vector<Visibility>& vis,
+                                           const SegmentationParams& params) {
+  HiddenSegmentEvidence e;
+  e.points = static_cast<int>(segment.size());
+  for (Visibility v : vis) e.occluded += v == Visibility::kOccluded;
+  if (segment.size() < 3 || !ctx.current) return e;
+  const Plane plane = fitPlane(*ctx.current, segment);
+  e.width_m = plane.sd(1);
+  e.thickness_m = plane.sd(0);
+  if (ctx.structure) measureRing(ctx, segment, plane, params, &e);
+  if (ctx.current_image && !ctx.current_image->empty())
+    measureOutline(ctx, segment, plane, params, &e);
+  return e;
+}
+
+bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
+                          const SegmentationParams& params) {
+  if (2 * e.occluded < e.points) return false;  // 1
+  if (!(e.width_m > tau)) return false;         // 2
+  if (e.thickness_m > tau) return false;        // 2
+  if (e.ring == 0) return false;                // 3
+  if (e.ring_coplanar >= params.hidden_max_coplanar * e.ring) return false;
+  const int outline = e.past + e.on;  // 4
+  return outline > 0 && e.past >= params.hidden_min_free_edge * outline;
+}
+
+std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
+                                         const std::vector<int>& hidden_owner,
+                                         const std::vector<Visibility>& hidden_vis,
+                                         int num_gaussians, const NearestNeighbourIndex& structure,
+                                         const std::vector<std::uint8_t>& gone, double tau,
+                                         const Params& params) {
+  std::vector<Indices> out;
+  const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
+  if (hidden.empty() || origin.isZero() || !origin.allFinite()) return out;
+  const std::vector<Indices> segments =
+      segmentNovelPoints(current, hidden, hidden_owner, num_gaussians, params.segmentation);
+  if (segments.empty()) return out;
+  RangeImage image;  // the current sweep from its own origin (test 4)
+  image.build(current, {}, origin, rangeImageConfig(params.visibility));
+  HiddenSegmentContext ctx;
+  ctx.current = &current;
+  ctx.structure = &structure;
+  ctx.gone = &gone;
+  ctx.current_image = &image;
+  ctx.tau = tau;
+  ctx.margin_m = params.visibility.margin_factor * tau;
+  for (const Indices& seg : segments) {
+    std::vector<Visibility> vis;
+    vis.reserve(seg.size());
+    for (int i : seg)
+      vis.push_back(hidden_vis[std::lower_bound(hidden.begin(), hidden.end(), i) - hidden.begin()]);
+    const HiddenSegmentEvidence e = measureHiddenSegment(ctx, seg, vis, params.segmentation);
+    if (hiddenSegmentIsNovel(e, tau, params.segmentation)) out.push_back(seg);
+  }
+  return out;
+}
+
+}  // namespace novelty_detection
