@@ -4,7 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_set>
+#include <set>
+#include <tuple>
 
 namespace novelty_detection {
 namespace {
@@ -36,7 +37,7 @@ Plane fitPlane(const Cloud& cloud, const Indices& segment) {
 // structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
 void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
                  const SegmentationParams& params, HiddenSegmentEvidence* e) {
-  std::unordered_set<long long> voxels;
+  std::set<std::tuple<long long, long long, long long>> voxels;
   std::vector<int> ids;
   std::vector<char> seen;
   const double radius = params.hidden_ring_factor * ctx.tau;
@@ -45,10 +46,12 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   for (int i : segment) {
     const Eigen::Vector3f p = (*ctx.current)[i].getVector3fMap();
     const Eigen::Vector3d v = (p.cast<double>() / voxel).array().floor();
-    const long long key = (static_cast<long long>(v.x()) * 73856093LL) ^
-                          (static_cast<long long>(v.y()) * 19349663LL) ^
-                          (static_cast<long long>(v.z()) * 83492791LL);
-    if (!voxels.insert(key).second) continue;
+    // The voxel itself as the key (a hashed key could collide and skip a query point).
+    if (!voxels
+             .emplace(static_cast<long long>(v.x()), static_cast<long long>(v.y()),
+                      static_cast<long long>(v.z()))
+             .second)
+      continue;
     ids.clear();
     ctx.structure->withinIds(p, radius, &ids);
     for (int id : ids) {
