@@ -153,6 +153,7 @@ struct SegmentationParams {
   bool visibility_check = true;          ///< novel points must lie where the map saw through
   bool hidden_unexplained = false;       ///< points hidden from the map may be novel if unexplained
   bool hidden_segments = true;           ///< segments hidden from the map may be novel (rule below)
+  bool hidden_continuations = true;      ///< hidden points continuing a novel segment join it
   double hidden_ring_factor = 4.0;       ///< map structure within factor * tau of the segment
   double hidden_plane_factor = 0.5;      ///< ... lies on its plane within factor * tau
   double hidden_max_coplanar = 0.25;     ///< continuation of the map when this share is coplanar
@@ -192,6 +193,10 @@ struct SegmentationParams {
       "a plane patch, not a coplanar continuation of the map structure around it and has "
       "free edges in the current view (a door leaf swung into space the old leaf hid; rule "
       "in hidden_segments.h); a revealed wall is none of the last two");
+    f("hidden_continuations", hidden_continuations,
+      "candidates hidden from the map that are linked to a novel segment (closer than the "
+      "segments' link radius, directly or through each other) join it: a moved object "
+      "reaching into the map's shadow is one object (hidden_segments.h)");
     f("hidden_ring_factor", hidden_ring_factor,
       "hidden segments: reference structure (no ground, not disappeared) within "
       "hidden_ring_factor * tau of the segment is what it could continue");

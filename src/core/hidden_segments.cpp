@@ -7,6 +7,8 @@
 #include <set>
 #include <tuple>
 
+#include "novelty_detection/point_grid.h"
+
 namespace novelty_detection {
 namespace {
 
@@ -206,6 +208,55 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
     if (hiddenSegmentIsNovel(e, tau, params.segmentation)) out.push_back(seg);
   }
   return out;
+}
+
+}  // namespace novelty_detection
+
+namespace novelty_detection {
+
+Indices growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
+                       double link_radius_m) {
+  if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
+      !std::isfinite(link_radius_m)) {
+    return hidden;
+  }
+  std::vector<char> taken_by_segment(current.size(), 0);
+  for (const Indices& s : *segments)
+    for (int i : s) taken_by_segment[static_cast<std::size_t>(i)] = 1;
+  Indices free;
+  Points3d pts;
+  for (int i : hidden) {
+    if (taken_by_segment[static_cast<std::size_t>(i)]) continue;
+    free.push_back(i);
+    pts.push_back(current[i].getVector3fMap().cast<double>());
+  }
+  if (free.empty()) return free;
+  const PointGrid grid(pts, link_radius_m);
+  std::vector<char> used(free.size(), 0);
+  for (Indices& seg : *segments) {
+    // Breadth-first from the segment's points through the free hidden candidates.
+    std::vector<Eigen::Vector3d> frontier;
+    frontier.reserve(seg.size());
+    for (int i : seg) frontier.push_back(current[i].getVector3fMap().cast<double>());
+    Indices added;
+    while (!frontier.empty()) {
+      const Eigen::Vector3d p = frontier.back();
+      frontier.pop_back();
+      grid.forNeighbours(p, link_radius_m, [&](int k) {
+        if (used[static_cast<std::size_t>(k)]) return;
+        used[static_cast<std::size_t>(k)] = 1;
+        added.push_back(free[static_cast<std::size_t>(k)]);
+        frontier.push_back(pts[static_cast<std::size_t>(k)]);
+      });
+    }
+    if (added.empty()) continue;
+    seg.insert(seg.end(), added.begin(), added.end());
+    std::sort(seg.begin(), seg.end());
+  }
+  Indices rest;
+  for (std::size_t k = 0; k < free.size(); ++k)
+    if (!used[k]) rest.push_back(free[k]);
+  return rest;
 }
 
 }  // namespace novelty_detection

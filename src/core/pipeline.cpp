@@ -345,16 +345,18 @@ Result Pipeline::detect(const Cloud& input) const {
     for (std::size_t k = 0; k < ref.kept.size(); ++k)
       gone[k] = result.disappeared_labels[ref.kept[k]] > 0;
     for (Indices& seg : novelHiddenSegments(current, hidden_points, hidden_owner, hidden_vis,
-                                            num_gaussians, ref.structure, gone, tau, params_)) {
-      for (int i : seg)
-        owner_of[i] = hidden_owner[std::lower_bound(hidden_points.begin(), hidden_points.end(), i) -
-                                   hidden_points.begin()];
+                                            num_gaussians, ref.structure, gone, tau, params_))
       comps.push_back(std::move(seg));
-    }
     std::stable_sort(comps.begin(), comps.end(),
                      [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
     timer.lap("hidden_segments");
   }
+  if (params_.segmentation.hidden_continuations && !hidden_points.empty()) {
+    growIntoHidden(current, &comps, hidden_points, link_radius);
+    timer.lap("hidden_continuations");
+  }
+  for (std::size_t k = 0; k < hidden_points.size(); ++k)
+    owner_of[hidden_points[k]] = hidden_owner[k];
   std::vector<double> decrease(result.current_gmm.size(), 0.0);
   for (std::size_t t = 0; t < sel.novel.size(); ++t) decrease[sel.novel[t]] = sel.decrease[t];
   for (const Indices& c : comps) {
