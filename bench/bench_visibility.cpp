@@ -123,8 +123,14 @@ void BM_Detect(benchmark::State& state) {
   const Removal& r = removal();
   Params params;
   params.superquadric.enabled = false;
-  params.visibility.newly_visible = state.range(0) != 0;
-  params.visibility.disappearances = state.range(0) != 0;
+  // arg 0: every stage of issue 7 off (the point rule of visibility.h, hidden segments and
+  // their continuations, newly visible, disappearances); arg 1: the defaults (all on).
+  const bool on = state.range(0) != 0;
+  params.segmentation.visibility_check = on;
+  params.segmentation.hidden_segments = on;
+  params.segmentation.hidden_continuations = on;
+  params.visibility.newly_visible = on;
+  params.visibility.disappearances = on;
   Pipeline pipeline(params);
   pipeline.setReference(r.reference);
   Result result;
@@ -134,7 +140,8 @@ void BM_Detect(benchmark::State& state) {
     for (const auto& t : result.timings) stage_ms[t.stage] += t.ms;
   }
   const double n = static_cast<double>(state.iterations());
-  for (const char* stage : {"newly_visible", "disappearances"})
+  for (const char* stage :
+       {"newly_visible", "disappearances", "hidden_segments", "hidden_continuations"})
     if (stage_ms.count(stage)) state.counters[std::string(stage) + "_ms"] = stage_ms[stage] / n;
   std::size_t novel = 0;
   for (int l : result.labels) novel += l > 0;
