@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "detail/novelty_candidates.h"
 #include "novelty_detection/alignment.h"
 #include "novelty_detection/disappearance.h"
 #include "novelty_detection/gmm.h"
@@ -259,74 +260,20 @@ Result Pipeline::detect(const Cloud& input) const {
   for (int k : sel.novel) result.novel_gaussian[k] = true;
   timer.lap("selection");
 
-  // ChoosePtfromGaussian: posterior mass of the novel Gaussians, then the distance check.
-  Indices novel_points;
-  std::vector<int> owner;  // most probable novel Gaussian per kept novel point
-  Indices hidden_points;   // far candidates the point rule calls newly visible
-  std::vector<int> hidden_owner;
-  std::vector<Visibility> hidden_vis;
-  if (!sel.novel.empty()) {
-    // Posteriors of the representatives first: only points of clusters with some novel
-    // posterior mass are evaluated one by one (a small fraction of the sweep).
-    const Eigen::MatrixXd rr = responsibilities(result.current_gmm, s.reps.points);
-    std::vector<char> cluster_novel(s.reps.size(), 0);
-    for (Eigen::Index c = 0; c < s.reps.size(); ++c) {
-      double mass = 0.0;
-      for (int k : sel.novel) mass += rr(k, c);
-      cluster_novel[c] = mass > 0.1 * params_.segmentation.posterior_threshold;
-    }
-    Indices todo;
-    for (int i : kept) {
-      const int c = s.cut.cluster_of[i];
-      if (c >= 0 && cluster_novel[c]) todo.push_back(i);
-    }
-    Eigen::Matrix3Xd x(3, todo.size());
-    for (std::size_t i = 0; i < todo.size(); ++i)
-      x.col(i) = point3f(current[todo[i]]).cast<double>();
-    const Eigen::MatrixXd r = responsibilities(result.current_gmm, x);
-    Indices far_points;
-    std::vector<int> far_owner;
-    for (std::size_t i = 0; i < todo.size(); ++i) {
-      double mass = 0.0, best = -1.0;
-      int best_k = -1;
-      for (int k : sel.novel) {
-        mass += r(k, i);
-        if (r(k, i) > best) best = r(k, i), best_k = k;
-      }
-      if (mass <= params_.segmentation.posterior_threshold) continue;
-      if (ref.points.distance(point3f(current[todo[i]])) <= tau) continue;
-      far_points.push_back(todo[i]);
-      far_owner.push_back(best_k);
-    }
-    // Far from every map point, but on a surface the map's mixture explains (e.g. between
-    // the sparse tilt lines of the reference): not novel.
-    Eigen::Matrix3Xd xf(3, far_points.size());
-    for (std::size_t i = 0; i < far_points.size(); ++i)
-      xf.col(i) = point3f(current[far_points[i]]).cast<double>();
-    Eigen::VectorXd ll;
-    if (!far_points.empty()) responsibilities(ref.gmm, xf, &ll);
-    // The fused rule of visibility.h (novelCandidate): free space -> novel; space the
-    // reference never observed -> newly visible, unless the map's mixture cannot explain it.
-    const bool use_visibility = params_.segmentation.visibility_check && !ref.visibility.empty();
-    const double margin = params_.visibility.margin_factor * tau;
-    for (std::size_t i = 0; i < far_points.size(); ++i) {
-      const Visibility v = use_visibility
-                               ? ref.visibility.classify(point3f(current[far_points[i]]), margin,
-                                                         RangeImage::Neighbourhood::kOwnCell)
-                               : Visibility::kUnknown;
-      if (!novelCandidate(use_visibility, v, ll[i] >= ref.explained_log_density,
-                          params_.segmentation.hidden_unexplained)) {
-        if (use_visibility) {
-          hidden_points.push_back(far_points[i]);
-          hidden_owner.push_back(far_owner[i]);
-          hidden_vis.push_back(v);
-        }
-        continue;
-      }
-      novel_points.push_back(far_points[i]);
-      owner.push_back(far_owner[i]);
-    }
-  }
+  // ChoosePtfromGaussian: posterior mass of the novel Gaussians, the distance check and the
+  // visibility rule (detail/novelty_candidates.h).
+  detail::CandidateReference cref;
+  cref.gmm = &ref.gmm;
+  cref.points = &ref.points;
+  cref.visibility = &ref.visibility;
+  cref.explained_log_density = ref.explained_log_density;
+  detail::NoveltyCandidates cand = detail::chooseNoveltyCandidates(
+      current, kept, s.cut.cluster_of, s.reps, result.current_gmm, sel.novel, cref, tau, params_);
+  const Indices& novel_points = cand.novel;
+  const std::vector<int>& owner = cand.owner;
+  const Indices& hidden_points = cand.hidden;
+  const std::vector<int>& hidden_owner = cand.hidden_owner;
+  const std::vector<Visibility>& hidden_vis = cand.hidden_vis;
   result.point_counts.emplace_back("novel_points", novel_points.size());
   // Segments (novelty_segmentation.h: linked pieces, merged per novel Gaussian).
   double link_radius = 0.0;
