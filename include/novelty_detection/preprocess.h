@@ -66,10 +66,17 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 ///     iterated to a fixed point (sigma starts at ground_distance_m). The median is robust to what
 ///     stands on the floor (boxes, the foot of walls), which only ever lies above it.
 ///  3. Inliers: |distance| <= max(ground_distance_m, ground_noise_k * sigma).
+///     A quarter of the hypotheses are drawn from the lowest fifth of the subset (by z),
+///     so the floor is among them even when it holds a small share of the sweep.
+///     With `sensor_origin`, a plane is a hypothesis only when the sensor lies above it by
+///     more than ground_distance_m: a tilting or 2D laser puts each scan line in a plane
+///     through the sensor, and near-horizontal lines (walls all around at sensor height)
+///     can hold more points than the floor.
 /// found = false when fewer than 3 points, no hypothesis within the angle, or fewer than
 /// ground_min_fraction of the points on the plane. Deterministic (fixed seed).
 GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
-                            const PreprocessParams& params);
+                            const PreprocessParams& params,
+                            const Eigen::Vector3f* sensor_origin = nullptr);
 
 /// Chains the steps with one parameter struct: finite -> sparse outliers -> ground.
 class Preprocessor {

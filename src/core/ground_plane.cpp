@@ -149,7 +149,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 }
 
 GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
-                            const PreprocessParams& params) {
+                            const PreprocessParams& params, const Eigen::Vector3f* sensor_origin) {
   params.validate();
   GroundPlane ground;
   std::vector<Eigen::Vector3d> pts;
@@ -183,6 +183,21 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   const double cos_max = std::cos(params.ground_max_angle_deg * M_PI / 180.0);
   const double t = params.ground_distance_m;
   std::uniform_int_distribution<int> pick(0, m - 1);
+  std::optional<Eigen::Vector3d> origin_d;
+  if (sensor_origin && sensor_origin->allFinite()) origin_d = sensor_origin->cast<double>();
+  const Eigen::Vector3d* origin = origin_d ? &*origin_d : nullptr;
+  // The lowest fifth of the sample: a quarter of the triples come from there.
+  std::vector<Eigen::Vector3d> low;
+  {
+    std::vector<double> z;
+    z.reserve(sample.size());
+    for (const auto& p : sample) z.push_back(p.z());
+    const std::size_t q = z.size() / 5;
+    std::nth_element(z.begin(), z.begin() + q, z.end());
+    for (const auto& p : sample)
+      if (p.z() <= z[q]) low.push_back(p);
+  }
+  std::uniform_int_distribution<int> pick_low(0, std::max(0, static_cast<int>(low.size()) - 1));
   // A near-horizontal plane through three points, scored on the sample.
   auto hypothesis = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                         const Eigen::Vector3d& c) -> std::optional<Hypothesis> {
@@ -193,6 +208,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     if (std::abs(normal.z()) < cos_max) return std::nullopt;
     if (normal.z() < 0) normal = -normal;
     const double d = -normal.dot(a);
+    if (origin && normal.dot(*origin) + d <= t) return std::nullopt;  // not below the sensor
     int support = 0;
     double z = 0.0;
     for (const auto& p : sample) {
@@ -206,9 +222,12 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   for (int draws = 0; draws < 20 * params.ground_max_iterations &&
                       static_cast<int>(hyps.size()) < params.ground_max_iterations;
        ++draws) {
-    const Eigen::Vector3d& a = sample[pick(rng)];
-    const Eigen::Vector3d& b = sample[pick(rng)];
-    const Eigen::Vector3d& c = sample[pick(rng)];
+    const bool from_low = draws % 4 == 3 && low.size() >= 3;
+    const std::vector<Eigen::Vector3d>& set = from_low ? low : sample;
+    auto& dist = from_low ? pick_low : pick;
+    const Eigen::Vector3d& a = set[dist(rng)];
+    const Eigen::Vector3d& b = set[dist(rng)];
+    const Eigen::Vector3d& c = set[dist(rng)];
     if (const auto h = hypothesis(a, b, c)) hyps.push_back(*h);
   }
   if (hyps.empty()) return ground;
