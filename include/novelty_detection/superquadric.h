@@ -87,6 +87,22 @@ double meanSurfaceDistance(const Superquadric& sq, const Points3d& points);
 /// Outward unit normal of the level set of F through a world point (gradient direction).
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world);
 
+/// One superquadric prepared for many distance queries (its rotation computed once); the
+/// results equal surfaceDistance(), signedSurfaceDistance() and surfaceNormal() exactly.
+/// Keeps a copy of its geometry.
+class SurfaceQuery {
+ public:
+  explicit SurfaceQuery(const Superquadric& sq);
+  /// surfaceDistance().
+  double distance(const Eigen::Vector3d& p_world) const;
+  /// signedSurfaceDistance(); `normal` (optional) receives surfaceNormal() at the same point.
+  double signedDistance(const Eigen::Vector3d& p_world, Eigen::Vector3d* normal = nullptr) const;
+
+ private:
+  Superquadric sq_;
+  Eigen::Matrix3d rotation_;
+};
+
 /// The surface point (world frame) on the ray from the centre along a canonical-frame
 /// direction (need not be normalised; must be non-zero).
 Eigen::Vector3d surfacePointAlong(const Superquadric& sq, const Eigen::Vector3d& dir_sq);

@@ -44,7 +44,9 @@ void neighbourhoodScale(const Points3d& points, double* radius, double* noise) {
       dist[j] = {(points[j] - p).squaredNorm(), static_cast<int>(j)};
     }
     const std::size_t k_max = std::min<std::size_t>(n, 400);
-    std::partial_sort(dist.begin(), dist.begin() + k_max, dist.end());
+    // The k_max nearest in order (as a partial sort; distinct indices make it unique).
+    std::nth_element(dist.begin(), dist.begin() + (k_max - 1), dist.end());
+    std::sort(dist.begin(), dist.begin() + k_max);
     for (std::size_t k = std::min<std::size_t>(12, k_max);; k = std::min(k_max, k + k / 2)) {
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t m = 0; m < k; ++m) mean += points[static_cast<std::size_t>(dist[m].second)];
@@ -92,6 +94,7 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   if (n < 2) return 0.0;
   const int id = owner[static_cast<std::size_t>(part.front())];
   const std::size_t samples = std::min<std::size_t>(n, 256);
+  const SurfaceQuery surface(model);
   // Candidates: the few nearest in 3D (the same sheet of surface, not a neighbouring part
   // behind it); of these, the nearest along the tangent plane.
   constexpr std::size_t kCandidates = 6;
@@ -100,7 +103,8 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   sq_diff.reserve(samples);
   for (std::size_t s = 0; s < samples; ++s) {
     const Eigen::Vector3d& p = points[static_cast<std::size_t>(part[s * n / samples])];
-    const Eigen::Vector3d normal = surfaceNormal(model, p);
+    Eigen::Vector3d normal;
+    const double signed_p = surface.signedDistance(p, &normal);
     near.clear();
     grid.forNeighbours(p, radius, [&](int j) {
       if (owner[static_cast<std::size_t>(j)] != id) return;
@@ -121,8 +125,8 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
         nearest = near[m].second;
       }
     }
-    const double diff = signedSurfaceDistance(model, p) -
-                        signedSurfaceDistance(model, points[static_cast<std::size_t>(nearest)]);
+    const double diff =
+        signed_p - surface.signedDistance(points[static_cast<std::size_t>(nearest)]);
     if (std::isfinite(diff)) {
       sq_diff.push_back(diff * diff);
       lag.push_back((points[static_cast<std::size_t>(nearest)] - p).norm());
