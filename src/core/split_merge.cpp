@@ -170,7 +170,21 @@ int SplitMerge::innerIterations() const {
 FitResult SplitMerge::refitPart(const Points3d& points, const Indices& indices,
                                 const Superquadric& start) const {
   return fitter_.refine(subsample(gather(points, indices), params_.split_fit_points), start,
-                        innerIterations(), false);
+                        innerIterations(), false, FitMeasures::kSurface);
+}
+
+void SplitMerge::completeMeasures(const Points3d& points,
+                                  std::vector<SuperquadricPart>& parts) const {
+  // The ranking fits measured mean_distance only; the parts returned report every measure
+  // over the points they were fitted on (the same subsample as refitPart()'s).
+  detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
+    FitResult& fit = parts[static_cast<std::size_t>(k)].fit;
+    const Points3d fitted = subsample(gather(points, parts[static_cast<std::size_t>(k)].indices),
+                                      params_.split_fit_points);
+    fit.mean_radial_distance = meanRadialDistance(fit.sq, fitted);
+    fit.residual = meanSquaredResidual(fit.sq, fitted);
+    fit.sq.residual = fit.residual;
+  });
 }
 
 std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
@@ -179,7 +193,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   stats_ = Stats();
   auto fit_part = [&](const Indices& indices) {
     return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points),
-                       innerIterations(), false);
+                       innerIterations(), false, FitMeasures::kSurface);
   };
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
@@ -293,7 +307,10 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     parts[k].indices = std::move(nodes[leaves[k]].indices);
     parts[k].fit = std::move(nodes[leaves[k]].fit);
   }
-  if (count == 1) return parts;
+  if (count == 1) {
+    if (!whole) completeMeasures(points, parts);
+    return parts;
+  }
 
   // The plane RMS underestimates the noise of laser sweeps (points of one scan line are
   // coplanar with the sensor whatever their range noise). Small leaves fit their points at
@@ -331,6 +348,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   std::vector<SuperquadricPart> out = merge(points, std::move(parts), std::move(adjacent), exact);
   dissolve(points, exact, out);
   reassignBoundaries(points, out);
+  completeMeasures(points, out);
   return out;
 }
 
