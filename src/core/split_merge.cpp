@@ -44,10 +44,15 @@ void neighbourhoodScale(const Points3d& points, double* radius, double* noise) {
       dist[j] = {(points[j] - p).squaredNorm(), static_cast<int>(j)};
     }
     const std::size_t k_max = std::min<std::size_t>(n, 400);
-    // The k_max nearest in order (as a partial sort; distinct indices make it unique).
-    std::nth_element(dist.begin(), dist.begin() + (k_max - 1), dist.end());
-    std::sort(dist.begin(), dist.begin() + k_max);
+    // dist[0, sorted) holds the nearest in order (as a partial sort would; distinct indices
+    // make the order unique), extended only as far as the neighbourhood grows.
+    std::size_t sorted = 0;
     for (std::size_t k = std::min<std::size_t>(12, k_max);; k = std::min(k_max, k + k / 2)) {
+      if (k > sorted) {
+        std::nth_element(dist.begin() + sorted, dist.begin() + (k - 1), dist.end());
+        std::sort(dist.begin() + sorted, dist.begin() + k);
+        sorted = k;
+      }
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t m = 0; m < k; ++m) mean += points[static_cast<std::size_t>(dist[m].second)];
       mean /= static_cast<double>(k);
