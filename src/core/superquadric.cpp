@@ -6,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "detail/superquadric_kernel.h"
+
 namespace novelty_detection {
 namespace {
 
@@ -89,12 +91,28 @@ double radialDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   return radialDistanceCanonical(sq, toCanonical(sq, p_world));
 }
 
-double meanRadialDistance(const Superquadric& sq, const Points3d& points) {
+namespace {
+/// Mean of the vectorised distances (radial or surface) over points, summed in order.
+double meanDistance(const Superquadric& sq, const Points3d& points, bool surface) {
   if (points.empty()) return 0.0;
-  const Eigen::Matrix3d rt = sq.rotation().transpose();
+  const double shape[5] = {sq.a[0], sq.a[1], sq.a[2], sq.e1, sq.e2};
+  const Eigen::Matrix3d r = sq.rotation();
+  double chunk[detail::kKernelChunk];
   double sum = 0.0;
-  for (const auto& p : points) sum += radialDistanceCanonical(sq, rt * (p - sq.position));
+  const auto n = static_cast<Eigen::Index>(points.size());
+  for (Eigen::Index begin = 0; begin < n; begin += detail::kKernelChunk) {
+    const Eigen::Index m = std::min(detail::kKernelChunk, n - begin);
+    detail::superquadricDistances(shape, r.data(), sq.position.data(),
+                                  points[static_cast<std::size_t>(begin)].data(), nullptr, m,
+                                  surface, chunk);
+    for (Eigen::Index i = 0; i < m; ++i) sum += chunk[i];
+  }
   return sum / static_cast<double>(points.size());
+}
+}  // namespace
+
+double meanRadialDistance(const Superquadric& sq, const Points3d& points) {
+  return meanDistance(sq, points, false);
 }
 
 namespace {
@@ -148,6 +166,14 @@ double SurfaceQuery::distance(const Eigen::Vector3d& p_world) const {
   return surfaceDistanceCanonical(sq_, rotation_.transpose() * (p_world - sq_.position));
 }
 
+void SurfaceQuery::distances(const Points3d& points, const Indices& indices, double* out) const {
+  const double shape[5] = {sq_.a[0], sq_.a[1], sq_.a[2], sq_.e1, sq_.e2};
+  if (indices.empty()) return;
+  detail::superquadricDistances(shape, rotation_.data(), sq_.position.data(), points.front().data(),
+                                indices.data(), static_cast<Eigen::Index>(indices.size()), true,
+                                out);
+}
+
 double SurfaceQuery::signedDistance(const Eigen::Vector3d& p_world, Eigen::Vector3d* normal) const {
   const Eigen::Vector3d q = rotation_.transpose() * (p_world - sq_.position);
   double l = 0.0;
@@ -158,11 +184,7 @@ double SurfaceQuery::signedDistance(const Eigen::Vector3d& p_world, Eigen::Vecto
 }
 
 double meanSurfaceDistance(const Superquadric& sq, const Points3d& points) {
-  if (points.empty()) return 0.0;
-  const Eigen::Matrix3d rt = sq.rotation().transpose();
-  double sum = 0.0;
-  for (const auto& p : points) sum += surfaceDistanceCanonical(sq, rt * (p - sq.position));
-  return sum / static_cast<double>(points.size());
+  return meanDistance(sq, points, true);
 }
 
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world) {

@@ -5,6 +5,7 @@
 // alignments.
 #include "detail/superquadric_kernel.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "novelty_detection/superquadric.h"
@@ -153,6 +154,62 @@ void superquadricJacobian(double const* const* parameters, const double* terms_d
       jacobians[3][3 * i] = jx[i];
       jacobians[3][3 * i + 1] = jy[i];
       jacobians[3][3 * i + 2] = jz[i];
+    }
+  }
+}
+
+void superquadricDistances(const double* shape, const double* rotation, const double* centre,
+                           const double* points, const int* index, Eigen::Index n, bool surface,
+                           double* out) {
+  using A = ChunkArray;
+  constexpr double kMaxLog = 690.0;  // exp() of more overflows (as in superquadric.cpp)
+  const double a0 = shape[0], a1 = shape[1], a2 = shape[2], e1 = shape[3], e2 = shape[4];
+  const double a_min = std::min(a0, std::min(a1, a2));
+  A qx(kKernelChunk), qy(kKernelChunk), qz(kKernelChunk);
+  for (Eigen::Index begin = 0; begin < n; begin += kKernelChunk) {
+    const Eigen::Index m = std::min(kKernelChunk, n - begin);
+    qx.resize(m);
+    qy.resize(m);
+    qz.resize(m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const double* p = points + 3 * (index ? index[begin + i] : begin + i);
+      const double dx = p[0] - centre[0], dy = p[1] - centre[1], dz = p[2] - centre[2];
+      // q = R^T (p - c): the columns of R dotted with d.
+      qx[i] = rotation[0] * dx + rotation[1] * dy + rotation[2] * dz;
+      qy[i] = rotation[3] * dx + rotation[4] * dy + rotation[5] * dz;
+      qz[i] = rotation[6] * dx + rotation[7] * dy + rotation[8] * dz;
+    }
+    // log F (logInsideOutsideCanonical()).
+    const A lx = (qx.square() / (a0 * a0) + kSqTinySquared).log() / e2;
+    const A ly = (qy.square() / (a1 * a1) + kSqTinySquared).log() / e2;
+    const A lz = (qz.square() / (a2 * a2) + kSqTinySquared).log() / e1;
+    const A lxy = lx.max(ly) + (1.0 + (-(lx - ly).abs()).exp()).log();
+    const A la = (e2 / e1) * lxy;
+    const A l = la.max(lz) + (1.0 + (-(la - lz).abs()).exp()).log();
+    Eigen::Map<Eigen::ArrayXd> result(out + begin, m);
+    auto radial = [&]() -> A {
+      // | |q| - r_s |, r_s = |q| F^(-e1/2); the smallest half size at the centre.
+      const A norm = (qx.square() + qy.square() + qz.square()).sqrt();
+      const A r = (norm - (norm.log() - 0.5 * e1 * l).min(kMaxLog).exp()).abs();
+      return (norm < 1e-12 * a_min).select(A::Constant(m, a_min), r);
+    };
+    if (!surface) {
+      result = radial();
+      continue;
+    }
+    // |f| / |grad f|, f = F^(e1/2) - 1, from the gradient of log F.
+    const A wa = (la - l).exp(), wb = (lz - l).exp();
+    const A wx = (lx - lxy).exp(), wy = (ly - lxy).exp();
+    const A gx = wa * wx * 2.0 / e1 * qx / (qx.square() + kSqTinySquared * a0 * a0);
+    const A gy = wa * wy * 2.0 / e1 * qy / (qy.square() + kSqTinySquared * a1 * a1);
+    const A gz = wb * 2.0 / e1 * qz / (qz.square() + kSqTinySquared * a2 * a2);
+    const A g = (gx.square() + gy.square() + gz.square()).sqrt();
+    result = (1.0 - (-0.5 * e1 * l).min(kMaxLog).exp()).abs() / (0.5 * e1 * g);
+    if (!result.isFinite().all()) {
+      const A r = radial();
+      for (Eigen::Index i = 0; i < m; ++i) {
+        if (!std::isfinite(result[i])) result[i] = r[i];
+      }
     }
   }
 }

@@ -52,5 +52,14 @@ void superquadricTerms(double const* const* parameters, const double* q, double*
 void superquadricJacobian(double const* const* parameters, const double* terms, Eigen::Index rows,
                           Eigen::Index begin, Eigen::Index n, double** jacobians);
 
+/// Distances of points to a superquadric, vectorised (the same formulas as radialDistance()
+/// and surfaceDistance() in superquadric.cpp, equal to them up to rounding). `shape`: a1, a2,
+/// a3, e1, e2; `rotation`: R (3 x 3, column-major); `centre`: its position; `points`: n
+/// consecutive xyz triples, or with `index` (may be null) the triples at index[0..n).
+/// surface = true: first-order surface distance, else radial distance; into out[0..n).
+void superquadricDistances(const double* shape, const double* rotation, const double* centre,
+                           const double* points, const int* index, Eigen::Index n, bool surface,
+                           double* out);
+
 }  // namespace detail
 }  // namespace novelty_detection
