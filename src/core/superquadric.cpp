@@ -91,6 +91,9 @@ double radialDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   return radialDistanceCanonical(sq, toCanonical(sq, p_world));
 }
 
+// The vectorised distances read a Points3d as consecutive xyz triples.
+static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double), "Vector3d is three doubles");
+
 namespace {
 /// Mean of the vectorised distances (radial or surface) over points, summed in order.
 double meanDistance(const Superquadric& sq, const Points3d& points, bool surface) {
