@@ -100,6 +100,8 @@ class SplitMerge {
   /// Ranking fit of the points at `indices` (subsampled to split_fit_points) from `start`.
   FitResult refitPart(const Points3d& points, const Indices& indices,
                       const Superquadric& start) const;
+  /// Fills in the measures the ranking fits skip (mean radial distance, residual).
+  void completeMeasures(const Points3d& points, std::vector<SuperquadricPart>& parts) const;
   /// Greedy merge of the leaves `parts` with the memoized cost matrix; `adjacent`: their
   /// topology; `exact`: the error of a fit that explains its points within the noise.
   std::vector<SuperquadricPart> merge(const Points3d& points, std::vector<SuperquadricPart> parts,

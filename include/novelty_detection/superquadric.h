@@ -70,7 +70,7 @@ double meanSquaredResidual(const Superquadric& sq, const Points3d& points);
 /// centre itself it is the smallest half size.
 double radialDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
 /// Mean radial distance over points [m] (the fit quality measure used throughout); 0 when
-/// empty.
+/// empty. Vectorised: equal to the mean of radialDistance() up to rounding.
 double meanRadialDistance(const Superquadric& sq, const Points3d& points);
 
 /// First-order Euclidean distance of a point to the surface, |f| / |grad f| with
@@ -81,11 +81,31 @@ double meanRadialDistance(const Superquadric& sq, const Points3d& points);
 double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
 /// surfaceDistance() with a sign: negative inside (F < 1), positive outside.
 double signedSurfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world);
-/// Mean of surfaceDistance() over points [m]; 0 when empty.
+/// Mean of surfaceDistance() over points [m], vectorised (equal up to rounding); 0 when
+/// empty.
 double meanSurfaceDistance(const Superquadric& sq, const Points3d& points);
 
 /// Outward unit normal of the level set of F through a world point (gradient direction).
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world);
+
+/// One superquadric prepared for many distance queries (its rotation computed once); the
+/// results equal surfaceDistance(), signedSurfaceDistance() and surfaceNormal() exactly.
+/// Keeps a copy of its geometry.
+class SurfaceQuery {
+ public:
+  explicit SurfaceQuery(const Superquadric& sq);
+  /// surfaceDistance().
+  double distance(const Eigen::Vector3d& p_world) const;
+  /// surfaceDistance() of points[indices[k]] into out[k], vectorised (equal to distance()
+  /// up to rounding).
+  void distances(const Points3d& points, const Indices& indices, double* out) const;
+  /// signedSurfaceDistance(); `normal` (optional) receives surfaceNormal() at the same point.
+  double signedDistance(const Eigen::Vector3d& p_world, Eigen::Vector3d* normal = nullptr) const;
+
+ private:
+  Superquadric sq_;
+  Eigen::Matrix3d rotation_;
+};
 
 /// The surface point (world frame) on the ray from the centre along a canonical-frame
 /// direction (need not be normalised; must be non-zero).

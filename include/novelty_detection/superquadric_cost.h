@@ -77,39 +77,15 @@ class SuperquadricBatchResidual : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
- private:
-  /// Points per chunk of an evaluation (a multiple of the SIMD packet size).
+  /// Points per chunk of an evaluation (a multiple of the SIMD packet size; the kernels'
+  /// chunk, detail/superquadric_kernel.h).
   static constexpr Eigen::Index kChunk = 64;
-  /// Per point terms of the residual that the Jacobian reuses, and the residual.
-  enum Term {
-    kPx,
-    kPy,
-    kPz,
-    kLx,
-    kLy,
-    kLb,
-    kLxy,
-    kLa,
-    kL,
-    kWxw,
-    kWyw,
-    kWa,
-    kWb,
-    kBigE,
-    kResidual,
-    kTerms
-  };
-  /// The terms of points [begin, begin + n), n <= kChunk, at `parameters` into terms_.
-  void computeTerms(double const* const* parameters, Eigen::Index begin, Eigen::Index n) const;
-  /// The Jacobian rows of points [begin, begin + n) from terms_; `jacobians` point at the
-  /// chunk's first rows.
-  void jacobianChunk(double const* const* parameters, Eigen::Index begin, Eigen::Index n,
-                     double** jacobians) const;
 
+ private:
   Eigen::Matrix3Xd q_;
   // The terms at the last evaluated parameters (one residual block per problem, so Ceres
   // never evaluates it concurrently).
-  mutable Eigen::MatrixXd terms_;  ///< points x kTerms
+  mutable Eigen::MatrixXd terms_;  ///< points x the kernels' terms
   mutable double last_[11] = {};
   mutable bool cached_ = false;
 };

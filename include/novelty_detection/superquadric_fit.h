@@ -33,6 +33,16 @@ struct FitResult {
   int iterations = 0;                 ///< LM iterations of the final run
 };
 
+/// Which quality measures a fit computes over its points (each is a pass of logs and exps
+/// over the points; fits whose caller reads only some of them skip the others). Fields not
+/// computed stay 0.
+enum class FitMeasures {
+  kAll,      ///< mean_radial_distance, mean_distance and residual
+  kRadial,   ///< mean_radial_distance only
+  kSurface,  ///< mean_distance only (the error measure of split and merge)
+  kNone,     ///< none: the caller uses the model alone
+};
+
 /// Fits one superquadric to a point set.
 ///
 /// Cost (eq. 3): sum_i ( sqrt(a1 a2 a3) (F(x_i)^e1 - 1) )^2, one auto-differentiated Ceres
@@ -56,11 +66,14 @@ class SuperquadricFitter {
   /// line_search = false: steps that leave the bounds are projected without Ceres' line
   /// search along them (about twice as fast, slightly less robust; for fits that only rank
   /// candidates, as in split and merge).
-  FitResult fit(const Points3d& points, int max_iterations = -1, bool line_search = true) const;
+  /// `measures`: what the result reports (the choice among the starts always uses the
+  /// mean radial distance).
+  FitResult fit(const Points3d& points, int max_iterations = -1, bool line_search = true,
+                FitMeasures measures = FitMeasures::kAll) const;
 
   /// LM from `initial` on `points` (max_iterations < 0: the params' max_iterations).
   FitResult refine(const Points3d& points, const Superquadric& initial, int max_iterations = -1,
-                   bool line_search = true) const;
+                   bool line_search = true, FitMeasures measures = FitMeasures::kAll) const;
 
   /// Initial models (Sec. V-B, e1 = e2 = 1): at the centre of gravity, axes from the
   /// central moments, each principal axis in turn as the superquadric's z axis (e1 acts
@@ -68,14 +81,17 @@ class SuperquadricFitter {
   /// sphere's surface and a solid box) and, for partial views where moments underestimate,
   /// sizes and centre from the points' min/max along the axes.
   std::vector<Superquadric> initialGuesses(const Points3d& points) const;
+  /// initialGuesses() from the points' principalFrame().
+  std::vector<Superquadric> initialGuesses(const PrincipalFrame& frame) const;
 
   const SuperquadricParams& params() const { return params_; }
 
  private:
-  /// refine() without the input check; measure = false leaves mean_distance and residual
-  /// at 0 (screening compares mean_radial_distance only).
+  /// refine() without the input check; `frame` (optional): principalFrame(points), when
+  /// the caller has it already.
   FitResult solve(const Points3d& points, const Superquadric& initial, int max_iterations,
-                  bool line_search, bool measure) const;
+                  bool line_search, FitMeasures measures,
+                  const PrincipalFrame* frame = nullptr) const;
 
   SuperquadricParams params_;
 };

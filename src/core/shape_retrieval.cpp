@@ -36,8 +36,14 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
   FitResult fits[2];
   detail::parallelFor(coarse_usable ? 2 : 1, threads_, [&](int k) {
-    fits[k] = k == 0 ? fitter.fit(sub)
-                     : fitter.refine(sub, fitter.fit(subsample(coarse, params_.max_fit_points)).sq);
+    // Only the mean radial distance (the choice) and the model are used here.
+    fits[k] = k == 0 ? fitter.fit(sub, -1, true, FitMeasures::kRadial)
+                     : fitter.refine(sub,
+                                     fitter
+                                         .fit(subsample(coarse, params_.max_fit_points), -1, true,
+                                              FitMeasures::kNone)
+                                         .sq,
+                                     -1, true, FitMeasures::kRadial);
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
@@ -90,8 +96,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   if (parts.size() > 1) {
     detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
       if (part_points[k].empty()) return;
-      parts[k].fit =
-          fitter.refine(subsample(part_points[k], params_.max_fit_points), parts[k].fit.sq);
+      parts[k].fit = fitter.refine(subsample(part_points[k], params_.max_fit_points),
+                                   parts[k].fit.sq, -1, true, FitMeasures::kNone);
     });
   }
   for (std::size_t k = 0; k < parts.size(); ++k) {

@@ -44,8 +44,15 @@ void neighbourhoodScale(const Points3d& points, double* radius, double* noise) {
       dist[j] = {(points[j] - p).squaredNorm(), static_cast<int>(j)};
     }
     const std::size_t k_max = std::min<std::size_t>(n, 400);
-    std::partial_sort(dist.begin(), dist.begin() + k_max, dist.end());
+    // dist[0, sorted) holds the nearest in order (as a partial sort would; distinct indices
+    // make the order unique), extended only as far as the neighbourhood grows.
+    std::size_t sorted = 0;
     for (std::size_t k = std::min<std::size_t>(12, k_max);; k = std::min(k_max, k + k / 2)) {
+      if (k > sorted) {
+        std::nth_element(dist.begin() + sorted, dist.begin() + (k - 1), dist.end());
+        std::sort(dist.begin() + sorted, dist.begin() + k);
+        sorted = k;
+      }
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (std::size_t m = 0; m < k; ++m) mean += points[static_cast<std::size_t>(dist[m].second)];
       mean /= static_cast<double>(k);
@@ -92,6 +99,7 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   if (n < 2) return 0.0;
   const int id = owner[static_cast<std::size_t>(part.front())];
   const std::size_t samples = std::min<std::size_t>(n, 256);
+  const SurfaceQuery surface(model);
   // Candidates: the few nearest in 3D (the same sheet of surface, not a neighbouring part
   // behind it); of these, the nearest along the tangent plane.
   constexpr std::size_t kCandidates = 6;
@@ -100,7 +108,8 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   sq_diff.reserve(samples);
   for (std::size_t s = 0; s < samples; ++s) {
     const Eigen::Vector3d& p = points[static_cast<std::size_t>(part[s * n / samples])];
-    const Eigen::Vector3d normal = surfaceNormal(model, p);
+    Eigen::Vector3d normal;
+    const double signed_p = surface.signedDistance(p, &normal);
     near.clear();
     grid.forNeighbours(p, radius, [&](int j) {
       if (owner[static_cast<std::size_t>(j)] != id) return;
@@ -121,8 +130,8 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
         nearest = near[m].second;
       }
     }
-    const double diff = signedSurfaceDistance(model, p) -
-                        signedSurfaceDistance(model, points[static_cast<std::size_t>(nearest)]);
+    const double diff =
+        signed_p - surface.signedDistance(points[static_cast<std::size_t>(nearest)]);
     if (std::isfinite(diff)) {
       sq_diff.push_back(diff * diff);
       lag.push_back((points[static_cast<std::size_t>(nearest)] - p).norm());
@@ -166,7 +175,21 @@ int SplitMerge::innerIterations() const {
 FitResult SplitMerge::refitPart(const Points3d& points, const Indices& indices,
                                 const Superquadric& start) const {
   return fitter_.refine(subsample(gather(points, indices), params_.split_fit_points), start,
-                        innerIterations(), false);
+                        innerIterations(), false, FitMeasures::kSurface);
+}
+
+void SplitMerge::completeMeasures(const Points3d& points,
+                                  std::vector<SuperquadricPart>& parts) const {
+  // The ranking fits measured mean_distance only; the parts returned report every measure
+  // over the points they were fitted on (the same subsample as refitPart()'s).
+  detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
+    FitResult& fit = parts[static_cast<std::size_t>(k)].fit;
+    const Points3d fitted = subsample(gather(points, parts[static_cast<std::size_t>(k)].indices),
+                                      params_.split_fit_points);
+    fit.mean_radial_distance = meanRadialDistance(fit.sq, fitted);
+    fit.residual = meanSquaredResidual(fit.sq, fitted);
+    fit.sq.residual = fit.residual;
+  });
 }
 
 std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
@@ -175,7 +198,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   stats_ = Stats();
   auto fit_part = [&](const Indices& indices) {
     return fitter_.fit(subsample(gather(points, indices), params_.split_fit_points),
-                       innerIterations(), false);
+                       innerIterations(), false, FitMeasures::kSurface);
   };
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
@@ -289,7 +312,10 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     parts[k].indices = std::move(nodes[leaves[k]].indices);
     parts[k].fit = std::move(nodes[leaves[k]].fit);
   }
-  if (count == 1) return parts;
+  if (count == 1) {
+    if (!whole) completeMeasures(points, parts);
+    return parts;
+  }
 
   // The plane RMS underestimates the noise of laser sweeps (points of one scan line are
   // coplanar with the sensor whatever their range noise). Small leaves fit their points at
@@ -327,6 +353,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   std::vector<SuperquadricPart> out = merge(points, std::move(parts), std::move(adjacent), exact);
   dissolve(points, exact, out);
   reassignBoundaries(points, out);
+  completeMeasures(points, out);
   return out;
 }
 

@@ -152,15 +152,22 @@ void SplitMerge::dissolve(const Points3d& points, double exact,
     std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
       return out[x].indices.size() < out[y].indices.size();
     });
+    std::vector<SurfaceQuery> surfaces;
+    for (const auto& part : out) surfaces.emplace_back(part.fit.sq);
     for (std::size_t j : order) {
       double sum = 0.0;
       std::vector<std::size_t> target(out[j].indices.size());
+      std::vector<std::vector<double>> dist(out.size());  // [part][point of j]
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        if (k == j) continue;
+        dist[k].resize(out[j].indices.size());
+        surfaces[k].distances(points, out[j].indices, dist[k].data());
+      }
       for (std::size_t n = 0; n < out[j].indices.size(); ++n) {
-        const Eigen::Vector3d& p = points[static_cast<std::size_t>(out[j].indices[n])];
         double best_d = kInf;
         for (std::size_t k = 0; k < out.size(); ++k) {
           if (k == j) continue;
-          const double d = surfaceDistance(out[k].fit.sq, p);
+          const double d = dist[k][n];
           if (d < best_d) {
             best_d = d;
             target[n] = k;
@@ -197,8 +204,9 @@ void SplitMerge::reassignBoundaries(const Points3d& points,
   auto total_distortion = [&](const std::vector<SuperquadricPart>& ps) {
     std::vector<double> sums(ps.size(), 0.0);  // per part, then added in order
     detail::parallelFor(static_cast<int>(ps.size()), threads_, [&](int k) {
-      for (int i : ps[k].indices)
-        sums[k] += surfaceDistance(ps[k].fit.sq, points[static_cast<std::size_t>(i)]);
+      std::vector<double> d(ps[k].indices.size());
+      SurfaceQuery(ps[k].fit.sq).distances(points, ps[k].indices, d.data());
+      for (double v : d) sums[k] += v;
     });
     double sum = 0.0;
     for (double v : sums) sum += v;
@@ -208,15 +216,20 @@ void SplitMerge::reassignBoundaries(const Points3d& points,
   for (int round = 0; round < 2 && out.size() > 1; ++round) {
     // Nearest part of every point, per current part (in parallel), then gathered in order.
     std::vector<std::vector<int>> nearest(out.size());
+    std::vector<SurfaceQuery> surfaces;
+    for (const auto& part : out) surfaces.emplace_back(part.fit.sq);
     detail::parallelFor(static_cast<int>(out.size()), threads_, [&](int k) {
-      nearest[k].reserve(out[k].indices.size());
-      for (int i : out[k].indices) {
-        const Eigen::Vector3d& p = points[static_cast<std::size_t>(i)];
+      const std::size_t count = out[k].indices.size();
+      nearest[k].reserve(count);
+      std::vector<double> dist(out.size() * count);  // part m's distances at m * count
+      for (std::size_t m = 0; m < out.size(); ++m) {
+        surfaces[m].distances(points, out[k].indices, dist.data() + m * count);
+      }
+      for (std::size_t n = 0; n < count; ++n) {
         std::size_t best = static_cast<std::size_t>(k);
-        double best_d = surfaceDistance(out[k].fit.sq, p);
+        double best_d = dist[static_cast<std::size_t>(k) * count + n];
         for (std::size_t m = 0; m < out.size(); ++m) {
-          const double d =
-              m == static_cast<std::size_t>(k) ? best_d : surfaceDistance(out[m].fit.sq, p);
+          const double d = m == static_cast<std::size_t>(k) ? best_d : dist[m * count + n];
           if (d < best_d) {
             best_d = d;
             best = m;

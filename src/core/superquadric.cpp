@@ -6,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "detail/superquadric_kernel.h"
+
 namespace novelty_detection {
 namespace {
 
@@ -17,8 +19,10 @@ double logF(const Superquadric& sq, const Eigen::Vector3d& q) {
   return logInsideOutsideCanonical(q.x(), q.y(), q.z(), sq.a[0], sq.a[1], sq.a[2], sq.e1, sq.e2);
 }
 
-/// Gradient of log F in the canonical frame (see logInsideOutsideCanonical()).
-Eigen::Vector3d gradLogF(const Superquadric& sq, const Eigen::Vector3d& q) {
+/// Gradient of log F in the canonical frame (see logInsideOutsideCanonical()); `log_f`
+/// (optional) receives log F itself, computed from the same logs (bit-identical to logF()).
+Eigen::Vector3d gradLogF(const Superquadric& sq, const Eigen::Vector3d& q,
+                         double* log_f = nullptr) {
   const double e1 = sq.e1, e2 = sq.e2;
   const double lx = std::log(q.x() * q.x() / (sq.a[0] * sq.a[0]) + kSqTinySquared) / e2;
   const double ly = std::log(q.y() * q.y() / (sq.a[1] * sq.a[1]) + kSqTinySquared) / e2;
@@ -26,6 +30,7 @@ Eigen::Vector3d gradLogF(const Superquadric& sq, const Eigen::Vector3d& q) {
   const double lxy = logSumExp(lx, ly);
   const double la = e2 / e1 * lxy;
   const double l = logSumExp(la, lz);
+  if (log_f) *log_f = l;
   const double wa = std::exp(la - l), wb = std::exp(lz - l);
   const double wx = std::exp(lx - lxy), wy = std::exp(ly - lxy);
   return Eigen::Vector3d(
@@ -86,21 +91,57 @@ double radialDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   return radialDistanceCanonical(sq, toCanonical(sq, p_world));
 }
 
-double meanRadialDistance(const Superquadric& sq, const Points3d& points) {
+// The vectorised distances read a Points3d as consecutive xyz triples.
+static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double), "Vector3d is three doubles");
+
+namespace {
+/// Mean of the vectorised distances (radial or surface) over points, summed in order.
+double meanDistance(const Superquadric& sq, const Points3d& points, bool surface) {
   if (points.empty()) return 0.0;
-  const Eigen::Matrix3d rt = sq.rotation().transpose();
+  const double shape[5] = {sq.a[0], sq.a[1], sq.a[2], sq.e1, sq.e2};
+  const Eigen::Matrix3d r = sq.rotation();
+  double chunk[detail::kKernelChunk];
   double sum = 0.0;
-  for (const auto& p : points) sum += radialDistanceCanonical(sq, rt * (p - sq.position));
+  const auto n = static_cast<Eigen::Index>(points.size());
+  for (Eigen::Index begin = 0; begin < n; begin += detail::kKernelChunk) {
+    const Eigen::Index m = std::min(detail::kKernelChunk, n - begin);
+    detail::superquadricDistances(shape, r.data(), sq.position.data(),
+                                  points[static_cast<std::size_t>(begin)].data(), nullptr, m,
+                                  surface, chunk);
+    for (Eigen::Index i = 0; i < m; ++i) sum += chunk[i];
+  }
   return sum / static_cast<double>(points.size());
+}
+}  // namespace
+
+double meanRadialDistance(const Superquadric& sq, const Points3d& points) {
+  return meanDistance(sq, points, false);
 }
 
 namespace {
-double surfaceDistanceCanonical(const Superquadric& sq, const Eigen::Vector3d& q) {
-  const double l = logF(sq, q);
-  const double g = gradLogF(sq, q).norm();
+/// surfaceDistance() in the canonical frame; `log_f` and `grad` (optional) receive log F and
+/// its gradient there (one set of logs for all three).
+double surfaceDistanceCanonical(const Superquadric& sq, const Eigen::Vector3d& q,
+                                double* log_f = nullptr, Eigen::Vector3d* grad = nullptr) {
+  double l = 0.0;
+  const Eigen::Vector3d gv = gradLogF(sq, q, &l);
+  if (log_f) *log_f = l;
+  if (grad) *grad = gv;
+  const double g = gv.norm();
   const double d =
       std::abs(1.0 - std::exp(std::min(-0.5 * sq.e1 * l, kMaxLog))) / (0.5 * sq.e1 * g);
   return std::isfinite(d) ? d : radialDistanceCanonical(sq, q);
+}
+
+/// Outward unit normal from the canonical-frame gradient of log F at q.
+Eigen::Vector3d normalFromGradient(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& q,
+                                   Eigen::Vector3d g) {
+  const double n = g.norm();
+  if (!(n > 0.0) || !std::isfinite(n)) {
+    // At the centre there is no gradient: fall back to the radial direction or +z.
+    g = q.norm() > 0.0 ? q : Eigen::Vector3d::UnitZ();
+  }
+  return (rotation * g).normalized();
 }
 }  // namespace
 
@@ -110,27 +151,48 @@ double surfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
 
 double signedSurfaceDistance(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   const Eigen::Vector3d q = toCanonical(sq, p_world);
-  const double d = surfaceDistanceCanonical(sq, q);
-  return logF(sq, q) < 0.0 ? -d : d;
+  double l = 0.0;
+  const double d = surfaceDistanceCanonical(sq, q, &l);
+  return l < 0.0 ? -d : d;
+}
+
+SurfaceQuery::SurfaceQuery(const Superquadric& sq) : rotation_(sq.rotation()) {
+  // The geometry only (not the indices).
+  sq_.a = sq.a;
+  sq_.e1 = sq.e1;
+  sq_.e2 = sq.e2;
+  sq_.euler = sq.euler;
+  sq_.position = sq.position;
+}
+
+double SurfaceQuery::distance(const Eigen::Vector3d& p_world) const {
+  return surfaceDistanceCanonical(sq_, rotation_.transpose() * (p_world - sq_.position));
+}
+
+void SurfaceQuery::distances(const Points3d& points, const Indices& indices, double* out) const {
+  const double shape[5] = {sq_.a[0], sq_.a[1], sq_.a[2], sq_.e1, sq_.e2};
+  if (indices.empty()) return;
+  detail::superquadricDistances(shape, rotation_.data(), sq_.position.data(), points.front().data(),
+                                indices.data(), static_cast<Eigen::Index>(indices.size()), true,
+                                out);
+}
+
+double SurfaceQuery::signedDistance(const Eigen::Vector3d& p_world, Eigen::Vector3d* normal) const {
+  const Eigen::Vector3d q = rotation_.transpose() * (p_world - sq_.position);
+  double l = 0.0;
+  Eigen::Vector3d g;
+  const double d = surfaceDistanceCanonical(sq_, q, &l, &g);
+  if (normal) *normal = normalFromGradient(rotation_, q, g);
+  return l < 0.0 ? -d : d;
 }
 
 double meanSurfaceDistance(const Superquadric& sq, const Points3d& points) {
-  if (points.empty()) return 0.0;
-  const Eigen::Matrix3d rt = sq.rotation().transpose();
-  double sum = 0.0;
-  for (const auto& p : points) sum += surfaceDistanceCanonical(sq, rt * (p - sq.position));
-  return sum / static_cast<double>(points.size());
+  return meanDistance(sq, points, true);
 }
 
 Eigen::Vector3d surfaceNormal(const Superquadric& sq, const Eigen::Vector3d& p_world) {
   const Eigen::Vector3d q = toCanonical(sq, p_world);
-  Eigen::Vector3d g = gradLogF(sq, q);
-  const double n = g.norm();
-  if (!(n > 0.0) || !std::isfinite(n)) {
-    // At the centre there is no gradient: fall back to the radial direction or +z.
-    g = q.norm() > 0.0 ? q : Eigen::Vector3d::UnitZ();
-  }
-  return (sq.rotation() * g).normalized();
+  return normalFromGradient(sq.rotation(), q, gradLogF(sq, q));
 }
 
 Eigen::Vector3d surfacePointAlong(const Superquadric& sq, const Eigen::Vector3d& dir_sq) {

@@ -81,7 +81,10 @@ SuperquadricFitter::SuperquadricFitter(const SuperquadricParams& params) : param
 }
 
 std::vector<Superquadric> SuperquadricFitter::initialGuesses(const Points3d& points) const {
-  const PrincipalFrame f = principalFrame(points);
+  return initialGuesses(principalFrame(points));
+}
+
+std::vector<Superquadric> SuperquadricFitter::initialGuesses(const PrincipalFrame& f) const {
   const double h = std::max(f.halfExtent(), params_.min_size_m);
   const double lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
   std::vector<Superquadric> guesses;
@@ -114,14 +117,16 @@ std::vector<Superquadric> SuperquadricFitter::initialGuesses(const Points3d& poi
 }
 
 FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric& initial,
-                                     int max_iterations, bool line_search) const {
+                                     int max_iterations, bool line_search,
+                                     FitMeasures measures) const {
   requirePoints(points, "SuperquadricFitter::refine");
-  return solve(points, initial, max_iterations, line_search, true);
+  return solve(points, initial, max_iterations, line_search, measures);
 }
 
 FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& initial,
-                                    int max_iterations, bool line_search, bool measure) const {
-  const PrincipalFrame f = principalFrame(points);
+                                    int max_iterations, bool line_search, FitMeasures measures,
+                                    const PrincipalFrame* frame) const {
+  const PrincipalFrame f = frame ? *frame : principalFrame(points);
   const double h = std::max(f.halfExtent(), params_.min_size_m);
   const double size_lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
   const double size_hi = std::max(params_.max_size_factor * h, 2.0 * size_lo);
@@ -205,29 +210,39 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   }
   sq.points = static_cast<int>(points.size());
   result.iterations = static_cast<int>(summary.iterations.size());
-  result.mean_radial_distance = meanRadialDistance(sq, points);
-  if (!measure) return result;
-  result.mean_distance = meanSurfaceDistance(sq, points);
-  result.residual = meanSquaredResidual(sq, points);
-  sq.residual = result.residual;
+  if (measures == FitMeasures::kAll || measures == FitMeasures::kRadial) {
+    result.mean_radial_distance = meanRadialDistance(sq, points);
+  }
+  if (measures == FitMeasures::kAll || measures == FitMeasures::kSurface) {
+    result.mean_distance = meanSurfaceDistance(sq, points);
+  }
+  if (measures == FitMeasures::kAll) {
+    result.residual = meanSquaredResidual(sq, points);
+    sq.residual = result.residual;
+  }
   return result;
 }
 
-FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations,
-                                  bool line_search) const {
+FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations, bool line_search,
+                                  FitMeasures measures) const {
   requirePoints(points, "SuperquadricFitter::fit");
-  const std::vector<Superquadric> guesses = initialGuesses(points);
+  const PrincipalFrame frame = principalFrame(points);
+  const std::vector<Superquadric> guesses = initialGuesses(frame);
   const Points3d screen = subsample(points, params_.screening_points);
+  // Every start is screened on the same points: their frame (the fit's bounds) once.
+  const PrincipalFrame screen_frame =
+      screen.size() == points.size() ? frame : principalFrame(screen);
   FitResult best;
   double best_error = std::numeric_limits<double>::infinity();
   for (const auto& guess : guesses) {
-    FitResult r = solve(screen, guess, params_.screening_iterations, line_search, false);
+    FitResult r = solve(screen, guess, params_.screening_iterations, line_search,
+                        FitMeasures::kRadial, &screen_frame);
     if (r.mean_radial_distance < best_error) {
       best_error = r.mean_radial_distance;
       best = r;
     }
   }
-  return refine(points, best.sq, max_iterations, line_search);
+  return solve(points, best.sq, max_iterations, line_search, measures, &frame);
 }
 
 }  // namespace novelty_detection
