@@ -15,11 +15,12 @@
 //    that radius), at least one exists and fewer than
 //    max_coplanar lie within plane_factor * tau of its plane (a revealed wall continues the
 //    mapped wall around it; a door leaf at a new angle meets the map only along its hinge);
-// 4. it stands in space: in the current sweep's own range image, among the cells within
-//    outline_factor * tau (at the segment's median range) around the segment's cells, the
-//    rays that reach past its plane by more than the visibility margin are at least
-//    min_free_edge of those that reach past or end on it (a door leaf has free edges
-//    beyond which the sensor sees farther; a revealed background surface has none).
+// 4. it stands in space: of the current sweep's rays (points) in the cells of its own
+//    range image within outline_factor * tau (at the segment's median range) around the
+//    segment's cells, those that end past its plane by more than the visibility margin are
+//    at least min_free_edge of those that end past or on it (a door leaf has free edges
+//    beyond which the sensor sees farther; a revealed background surface has none). Rays,
+//    not cells: a cell on the leaf's edge holds both leaf and background returns.
 // Every length scales with tau (the data's noise and sampling distance) and the sweep's
 // angular spacing. Without a current sensor origin, test 4 cannot be made: nothing revives.
 #pragma once
@@ -48,14 +49,26 @@ struct HiddenSegmentEvidence {
   int on = 0;                ///< outline rays that end on its plane
 };
 
+/// A current point's cell in the current sweep's range image, and its range.
+struct RayCell {
+  int col = -1, row = -1;
+  float range = 0.f;
+};
+
+/// Cells of every point of `cloud` in `image` (col = -1 for a point outside it).
+std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image);
+
 /// What the rule needs about the scene.
 struct HiddenSegmentContext {
   const Cloud* current = nullptr;
   const NearestNeighbourIndex* structure = nullptr;  ///< reference points, no ground
   const std::vector<std::uint8_t>* gone = nullptr;   ///< per structure point: disappeared
   const RangeImage* current_image = nullptr;         ///< the current sweep from its origin
-  double tau = 0.0;                                  ///< novelty distance [m]
-  double margin_m = 0.0;                             ///< visibility margin [m]
+  /// Per point of *current: its cell in current_image and range (col < 0: none). Filled
+  /// by novelHiddenSegments; without it test 4 bins the points itself.
+  const std::vector<RayCell>* rays = nullptr;
+  double tau = 0.0;       ///< novelty distance [m]
+  double margin_m = 0.0;  ///< visibility margin [m]
 };
 
 /// Measures `segment` (indices into *ctx.current; vis[k] the reference visibility of

@@ -158,7 +158,7 @@ struct SegmentationParams {
   double hidden_plane_factor = 0.5;      ///< ... lies on its plane within factor * tau
   double hidden_max_coplanar = 0.25;     ///< continuation of the map when this share is coplanar
   double hidden_outline_factor = 2.0;    ///< outline ring of factor * tau around it (current view)
-  double hidden_min_free_edge = 0.1;     ///< min share of outline rays reaching past its plane
+  double hidden_min_free_edge = 0.25;    ///< min share of outline rays reaching past its plane
 
   template <class F>
   void visit(F&& f) {

@@ -123,33 +123,48 @@ void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, con
            sat[static_cast<std::size_t>(y1 + 1) * (w + 1) + x0] +
            sat[static_cast<std::size_t>(y0) * (w + 1) + x0];
   };
-  std::vector<std::pair<int, int>> ring;  // (column, row) in the image
-  for (int y = 0; y < h; ++y) {
-    const int row = r_lo - k + y;
-    if (row < 0 || row >= image.rows()) continue;
-    for (int x = 0; x < w; ++x) {
-      if (own[static_cast<std::size_t>(y) * w + x] || boxSum(x - k, y - k, x + k, y + k) == 0)
-        continue;
-      ring.emplace_back(((col0 + c_lo - k + x) % cols + cols) % cols, row);
-    }
-  }
-  const Eigen::Vector3d o = image.origin().cast<double>();
-  const double offset = plane.normal.dot(plane.centroid - o);
-  for (const auto& [col, row] : ring) {
-    float near = 0.f, far = 0.f;
-    if (!image.cellRange(col, row, &near, &far)) continue;
-    const double nu = plane.normal.dot(image.cellDirection(col, row).cast<double>());
+  std::vector<char> in_ring(static_cast<std::size_t>(w) * h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      in_ring[static_cast<std::size_t>(y) * w + x] =
+          !own[static_cast<std::size_t>(y) * w + x] && boxSum(x - k, y - k, x + k, y + k) > 0;
+  const std::vector<RayCell> own_rays =
+      ctx.rays ? std::vector<RayCell>() : rayCells(*ctx.current, image);
+  const std::vector<RayCell>& rays = ctx.rays ? *ctx.rays : own_rays;
+  const Eigen::Vector3f& o = image.origin();
+  const double offset = plane.normal.dot(plane.centroid - o.cast<double>());
+  for (std::size_t i = 0; i < rays.size() && i < ctx.current->size(); ++i) {
+    const RayCell& ray = rays[i];
+    if (ray.col < 0) continue;
+    int dc = ((ray.col - col0) % cols + cols) % cols;
+    if (dc > cols / 2) dc -= cols;
+    const int x = dc - c_lo + k, y = ray.row - r_lo + k;
+    if (x < 0 || y < 0 || x >= w || y >= h || !in_ring[static_cast<std::size_t>(y) * w + x])
+      continue;
+    const Eigen::Vector3d dir = ((*ctx.current)[i].getVector3fMap() - o).cast<double>() / ray.range;
+    const double nu = plane.normal.dot(dir);
     if (std::abs(nu) < 1e-3) continue;  // the ray runs along the plane
     const double t = offset / nu;       // range at which the ray meets the plane
-    if (t <= 0 || near > t + ctx.margin_m) {
+    if (t <= 0 || ray.range > t + ctx.margin_m) {
       ++e->past;
-    } else if (far >= t - ctx.margin_m) {
+    } else if (ray.range >= t - ctx.margin_m) {
       ++e->on;
     }
   }
 }
 
 }  // namespace
+
+std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image) {
+  std::vector<RayCell> out(cloud.size());
+  if (image.empty()) return out;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f d = cloud[i].getVector3fMap() - image.origin();
+    RayCell c;
+    if (d.allFinite() && image.cellOf(d, &c.col, &c.row, &c.range) && c.range > 0.f) out[i] = c;
+  }
+  return out;
+}
 
 HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
                                            const std::vector<Visibility>& vis,
@@ -197,6 +212,8 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
   ctx.structure = &structure;
   ctx.gone = &gone;
   ctx.current_image = &image;
+  const std::vector<RayCell> rays = rayCells(current, image);
+  ctx.rays = &rays;
   ctx.tau = tau;
   ctx.margin_m = params.visibility.margin_factor * tau;
   for (const Indices& seg : segments) {
