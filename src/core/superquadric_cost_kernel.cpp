@@ -186,6 +186,10 @@ void superquadricDistances(const double* shape, const double* rotation, const do
     const A lxy = lx.max(ly) + (1.0 + (-(lx - ly).abs()).exp()).log();
     const A la = (e2 / e1) * lxy;
     const A l = la.max(lz) + (1.0 + (-(la - lz).abs()).exp()).log();
+    // Results are evaluated into chunk arrays (aligned storage) and then copied: evaluated
+    // straight into `out`, Eigen would peel a few leading elements to reach alignment and
+    // compute them with scalar exp/log, so the last bits of a distance would depend on the
+    // address of the caller's buffer (and so on which thread allocated it).
     Eigen::Map<Eigen::ArrayXd> result(out + begin, m);
     auto radial = [&]() -> A {
       // | |q| - r_s |, r_s = |q| F^(-e1/2); the smallest half size at the centre.
@@ -204,13 +208,14 @@ void superquadricDistances(const double* shape, const double* rotation, const do
     const A gy = wa * wy * 2.0 / e1 * qy / (qy.square() + kSqTinySquared * a1 * a1);
     const A gz = wb * 2.0 / e1 * qz / (qz.square() + kSqTinySquared * a2 * a2);
     const A g = (gx.square() + gy.square() + gz.square()).sqrt();
-    result = (1.0 - (-0.5 * e1 * l).min(kMaxLog).exp()).abs() / (0.5 * e1 * g);
-    if (!result.isFinite().all()) {
+    A d = (1.0 - (-0.5 * e1 * l).min(kMaxLog).exp()).abs() / (0.5 * e1 * g);
+    if (!d.isFinite().all()) {
       const A r = radial();
       for (Eigen::Index i = 0; i < m; ++i) {
-        if (!std::isfinite(result[i])) result[i] = r[i];
+        if (!std::isfinite(d[i])) d[i] = r[i];
       }
     }
+    result = d;
   }
 }
 
