@@ -31,7 +31,6 @@
 
 #include <Eigen/Core>
 
-#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -69,21 +68,6 @@ class RangeImage {
 
   /// Cell of the direction d (from the origin) and its length; false outside the image.
   bool cellOf(const Eigen::Vector3f& d, int* col, int* row, float* range) const;
-  /// [near, far] ranges of cell (col, row) after filling; false when it has no return.
-  bool cellRange(int col, int row, float* near, float* far) const {
-    if (cells_.empty() || row < 0 || row >= rows_) return false;
-    const Cell& c = cells_[static_cast<std::size_t>(row) * cols_ + ((col % cols_) + cols_) % cols_];
-    *near = c.near;
-    *far = c.far;
-    return c.near <= c.far;
-  }
-  /// Unit direction of the centre of cell (col, row).
-  Eigen::Vector3f cellDirection(int col, int row) const {
-    const double az = (col + 0.5) * cell_rad_ - M_PI, el = el_min_ + (row + 0.5) * cell_rad_;
-    return Eigen::Vector3f(static_cast<float>(std::cos(el) * std::cos(az)),
-                           static_cast<float>(std::cos(el) * std::sin(az)),
-                           static_cast<float>(std::sin(el)));
-  }
   const Eigen::Vector3f& origin() const { return origin_; }
   double cellRad() const { return cell_rad_; }
   int fillRows() const { return fill_rows_; }  ///< half height of the fill window [cells]
