@@ -99,8 +99,8 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 /// candidates of `hidden` (ascending indices into `current`, as above) that are in no
 /// segment and are linked to a segment's points (closer than `link_radius_m`, directly or
 /// through other such candidates) join that segment (segments in order, each kept
-/// ascending). Returns the candidates that joined none.
-Indices growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                       double link_radius_m);
+/// ascending).
+void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
+                    double link_radius_m);
 
 }  // namespace novelty_detection

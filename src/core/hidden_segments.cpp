@@ -73,20 +73,23 @@ void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, con
                     const SegmentationParams& params, HiddenSegmentEvidence* e) {
   const RangeImage& image = *ctx.current_image;
   const int cols = image.cols();
+  const std::vector<RayCell> own_rays =
+      ctx.rays ? std::vector<RayCell>() : rayCells(*ctx.current, image);
+  const std::vector<RayCell>& rays = ctx.rays ? *ctx.rays : own_rays;
+  int col0 = -1;
+  // Columns relative to the segment's first one, in (-cols/2, cols/2]: no seam at +-pi.
+  auto unwrap = [&](int col) {
+    const int dc = ((col - col0) % cols + cols) % cols;
+    return dc > cols / 2 ? dc - cols : dc;
+  };
   std::vector<std::pair<int, int>> cells;  // (unwrapped column, row) of the segment's points
   std::vector<float> ranges;
-  int col0 = -1;
   for (int i : segment) {
-    int col = 0, row = 0;
-    float r = 0.f;
-    if (!image.cellOf((*ctx.current)[i].getVector3fMap() - image.origin(), &col, &row, &r))
-      continue;
-    if (col0 < 0) col0 = col;
-    // Columns relative to the first one, in (-cols/2, cols/2]: no seam at azimuth +-pi.
-    int dc = ((col - col0) % cols + cols) % cols;
-    if (dc > cols / 2) dc -= cols;
-    cells.emplace_back(dc, row);
-    ranges.push_back(r);
+    const RayCell& ray = rays[static_cast<std::size_t>(i)];
+    if (ray.col < 0) continue;
+    if (col0 < 0) col0 = ray.col;
+    cells.emplace_back(unwrap(ray.col), ray.row);
+    ranges.push_back(ray.range);
   }
   if (ranges.empty()) return;
   std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
@@ -128,17 +131,12 @@ void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, con
     for (int x = 0; x < w; ++x)
       in_ring[static_cast<std::size_t>(y) * w + x] =
           !own[static_cast<std::size_t>(y) * w + x] && boxSum(x - k, y - k, x + k, y + k) > 0;
-  const std::vector<RayCell> own_rays =
-      ctx.rays ? std::vector<RayCell>() : rayCells(*ctx.current, image);
-  const std::vector<RayCell>& rays = ctx.rays ? *ctx.rays : own_rays;
   const Eigen::Vector3f& o = image.origin();
   const double offset = plane.normal.dot(plane.centroid - o.cast<double>());
-  for (std::size_t i = 0; i < rays.size() && i < ctx.current->size(); ++i) {
+  for (std::size_t i = 0; i < rays.size(); ++i) {
     const RayCell& ray = rays[i];
     if (ray.col < 0) continue;
-    int dc = ((ray.col - col0) % cols + cols) % cols;
-    if (dc > cols / 2) dc -= cols;
-    const int x = dc - c_lo + k, y = ray.row - r_lo + k;
+    const int x = unwrap(ray.col) - c_lo + k, y = ray.row - r_lo + k;
     if (x < 0 || y < 0 || x >= w || y >= h || !in_ring[static_cast<std::size_t>(y) * w + x])
       continue;
     const Eigen::Vector3d dir = ((*ctx.current)[i].getVector3fMap() - o).cast<double>() / ray.range;
@@ -227,15 +225,11 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
   return out;
 }
 
-}  // namespace novelty_detection
-
-namespace novelty_detection {
-
-Indices growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                       double link_radius_m) {
+void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
+                    double link_radius_m) {
   if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
       !std::isfinite(link_radius_m)) {
-    return hidden;
+    return;
   }
   std::vector<char> taken_by_segment(current.size(), 0);
   for (const Indices& s : *segments)
@@ -247,7 +241,7 @@ Indices growIntoHidden(const Cloud& current, std::vector<Indices>* segments, con
     free.push_back(i);
     pts.push_back(current[i].getVector3fMap().cast<double>());
   }
-  if (free.empty()) return free;
+  if (free.empty()) return;
   const PointGrid grid(pts, link_radius_m);
   std::vector<char> used(free.size(), 0);
   for (Indices& seg : *segments) {
@@ -270,10 +264,6 @@ Indices growIntoHidden(const Cloud& current, std::vector<Indices>* segments, con
     seg.insert(seg.end(), added.begin(), added.end());
     std::sort(seg.begin(), seg.end());
   }
-  Indices rest;
-  for (std::size_t k = 0; k < free.size(); ++k)
-    if (!used[k]) rest.push_back(free[k]);
-  return rest;
 }
 
 }  // namespace novelty_detection
