@@ -20,6 +20,13 @@ using Indices = std::vector<int>;
 /// A plain list of 3D points [m] (what the geometry code works on).
 using Points3d = std::vector<Eigen::Vector3d>;
 
+/// Whether a cloud's sensor origin (PCL's sensor_origin_, the PCD VIEWPOINT) is known: finite
+/// and not (0, 0, 0), which is what a cloud without a viewpoint carries. Every stage that
+/// needs the viewpoint (visibility, hidden segments, disappearances, the ground rule) asks this.
+inline bool sensorOriginKnown(const Eigen::Vector3f& origin) {
+  return origin.allFinite() && !origin.isZero();
+}
+
 /// One component of a Gaussian mixture (metres, square metres).
 struct Gaussian {
   double weight = 0.0;

@@ -35,8 +35,8 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   result->disappeared_segments.clear();
   result->disappeared_superquadrics.clear();
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
-  if (!params.visibility.disappearances || origin.isZero() || !origin.allFinite() ||
-      candidates.empty() || current.empty())
+  if (!params.visibility.disappearances || !sensorOriginKnown(origin) || candidates.empty() ||
+      current.empty())
     return false;
   RangeImage::Config config;
   config.cell_factor = params.visibility.cell_factor;

@@ -170,7 +170,7 @@ void Pipeline::setReference(const Cloud& reference) {
   model->points.build(reference, s.pre.finite);
   if (params_.alignment.enabled) model->planes.build(reference, params_.alignment, s.pre.finite);
   const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
-  if (!origin.isZero() && origin.allFinite())
+  if (sensorOriginKnown(origin))
     model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params_.visibility));
   model->kept = s.pre.kept;
   if (params_.segmentation.hidden_segments) model->structure.build(reference, s.pre.kept);

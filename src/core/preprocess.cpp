@@ -159,9 +159,8 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud,
                                          &result.outliers);
   }
   if (params_.ground_removal) {
-    const bool origin_known = sensor_origin.allFinite() && !sensor_origin.isZero();
-    result.ground =
-        findGroundPlane(cloud, current, params_, origin_known ? &sensor_origin : nullptr);
+    result.ground = findGroundPlane(cloud, current, params_,
+                                    sensorOriginKnown(sensor_origin) ? &sensor_origin : nullptr);
   }
   // current and the ground inliers are both ascending: a linear set difference.
   result.kept.reserve(current.size());

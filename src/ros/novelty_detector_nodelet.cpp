@@ -330,7 +330,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   setSensorPose(cloud, msg->header.frame_id, msg->header.stamp);
   if (capture_next_.exchange(false)) {
     try {
-      if (cloud.sensor_origin_.head<3>().isZero())
+      if (!sensorOriginKnown(cloud.sensor_origin_.head<3>()))
         NODELET_WARN(
             "captured reference without a viewpoint (the sweep is in the fixed frame "
             "and ~sensor_frame is not set)");

@@ -217,7 +217,7 @@ int run(const Args& args) {
             superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's viewpoint (PCD VIEWPOINT).
   const bool checked =
-      params.visibility.disappearances && !current.sensor_origin_.head<3>().isZero();
+      params.visibility.disappearances && nd::sensorOriginKnown(current.sensor_origin_.head<3>());
   if (params.visibility.disappearances && !checked)
     std::cerr << "novelty_detect: the current cloud has no VIEWPOINT: disappearances not checked\n";
   writeText((dir / "report.json").string(),
