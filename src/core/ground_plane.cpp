@@ -183,9 +183,8 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   const double cos_max = std::cos(params.ground_max_angle_deg * M_PI / 180.0);
   const double t = params.ground_distance_m;
   std::uniform_int_distribution<int> pick(0, m - 1);
-  std::optional<Eigen::Vector3d> origin_d;
-  if (sensor_origin && sensor_origin->allFinite()) origin_d = sensor_origin->cast<double>();
-  const Eigen::Vector3d* origin = origin_d ? &*origin_d : nullptr;
+  const bool has_origin = sensor_origin && sensor_origin->allFinite();
+  const Eigen::Vector3d origin = has_origin ? sensor_origin->cast<double>() : Eigen::Vector3d();
   // The lowest fifth of the sample: a quarter of the triples come from there.
   std::vector<Eigen::Vector3d> low;
   {
@@ -208,7 +207,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     if (std::abs(normal.z()) < cos_max) return std::nullopt;
     if (normal.z() < 0) normal = -normal;
     const double d = -normal.dot(a);
-    if (origin && normal.dot(*origin) + d <= t) return std::nullopt;  // not below the sensor
+    if (has_origin && normal.dot(origin) + d <= t) return std::nullopt;  // not below the sensor
     int support = 0;
     double z = 0.0;
     for (const auto& p : sample) {

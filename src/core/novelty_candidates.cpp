@@ -3,11 +3,6 @@
 
 namespace novelty_detection {
 namespace detail {
-namespace {
-
-Eigen::Vector3f point3f(const PointT& p) { return Eigen::Vector3f(p.x, p.y, p.z); }
-
-}  // namespace
 
 NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& kept,
                                           const std::vector<int>& cluster_of,
@@ -34,7 +29,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   }
   Eigen::Matrix3Xd x(3, todo.size());
   for (std::size_t i = 0; i < todo.size(); ++i)
-    x.col(static_cast<Eigen::Index>(i)) = point3f(current[todo[i]]).cast<double>();
+    x.col(static_cast<Eigen::Index>(i)) = current[todo[i]].getVector3fMap().cast<double>();
   const Eigen::MatrixXd r = responsibilities(theta, x);
   Indices far_points;
   std::vector<int> far_owner;
@@ -47,7 +42,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
       if (r(k, col) > best) best = r(k, col), best_k = k;
     }
     if (mass <= threshold) continue;
-    if (reference.points->distance(point3f(current[todo[i]])) <= tau) continue;
+    if (reference.points->distance(current[todo[i]].getVector3fMap()) <= tau) continue;
     far_points.push_back(todo[i]);
     far_owner.push_back(best_k);
   }
@@ -55,7 +50,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   // the sparse tilt lines of the reference): not novel.
   Eigen::Matrix3Xd xf(3, far_points.size());
   for (std::size_t i = 0; i < far_points.size(); ++i)
-    xf.col(static_cast<Eigen::Index>(i)) = point3f(current[far_points[i]]).cast<double>();
+    xf.col(static_cast<Eigen::Index>(i)) = current[far_points[i]].getVector3fMap().cast<double>();
   Eigen::VectorXd ll;
   if (!far_points.empty()) responsibilities(*reference.gmm, xf, &ll);
   // The fused rule of visibility.h (novelCandidate): free space -> novel; space the
@@ -65,8 +60,8 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   const double margin = params.visibility.margin_factor * tau;
   for (std::size_t i = 0; i < far_points.size(); ++i) {
     const Visibility v =
-        use_visibility ? reference.visibility->classify(point3f(current[far_points[i]]), margin,
-                                                        RangeImage::Neighbourhood::kOwnCell)
+        use_visibility ? reference.visibility->classify(current[far_points[i]].getVector3fMap(),
+                                                        margin, RangeImage::Neighbourhood::kOwnCell)
                        : Visibility::kUnknown;
     if (!novelCandidate(use_visibility, v,
                         ll[static_cast<Eigen::Index>(i)] >= reference.explained_log_density,
