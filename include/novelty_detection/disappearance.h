@@ -14,15 +14,19 @@
 
 #include "novelty_detection/params.h"
 #include "novelty_detection/types.h"
+#include "novelty_detection/visibility.h"
 
 namespace novelty_detection {
 
 /// Fills result->disappeared_labels (reference.size(), always), disappeared_segments and,
 /// when superquadric/enabled, disappeared_superquadrics. `candidates`: reference points
 /// that may disappear. `tau_m`: the data's novelty distance. Returns false when skipped
-/// (disabled, no current origin, empty input).
+/// (disabled, no current origin, empty input). `current_image`: the current sweep's range
+/// image from its own origin with rangeImageConfig(params.visibility), when the caller has
+/// built it already (built here otherwise).
 bool findDisappearances(const Params& params, const Cloud& reference, const Indices& candidates,
-                        const Cloud& current, double tau_m, Result* result);
+                        const Cloud& current, double tau_m, Result* result,
+                        const RangeImage* current_image = nullptr);
 
 /// The superquadric part of findDisappearances (separate so that its cost is timed apart).
 void fitDisappearedSuperquadrics(const SuperquadricParams& params, const Cloud& reference,

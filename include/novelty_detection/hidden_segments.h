@@ -87,12 +87,15 @@ bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
 /// linked and merged like the novel points (segmentNovelPoints). `structure` indexes the
 /// reference's points without ground, `gone` flags its disappeared ones (same order). Needs
 /// the current sensor origin (current.sensor_origin_); without it returns nothing.
+/// `current_image`: the current sweep's range image from that origin with
+/// rangeImageConfig(params.visibility), when the caller has built it (built here otherwise).
 std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
                                          const std::vector<int>& hidden_owner,
                                          const std::vector<Visibility>& hidden_vis,
                                          int num_gaussians, const NearestNeighbourIndex& structure,
                                          const std::vector<std::uint8_t>& gone, double tau,
-                                         const Params& params);
+                                         const Params& params,
+                                         const RangeImage* current_image = nullptr);
 
 /// Continuations of novel segments into hidden space: a moved object that now reaches into
 /// the reference's shadow is one object, not part novel and part newly visible. The

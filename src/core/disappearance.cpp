@@ -30,7 +30,8 @@ Segment referenceSegment(const Cloud& cloud, Indices indices, int id) {
 }  // namespace
 
 bool findDisappearances(const Params& params, const Cloud& reference, const Indices& candidates,
-                        const Cloud& current, double tau_m, Result* result) {
+                        const Cloud& current, double tau_m, Result* result,
+                        const RangeImage* current_image) {
   result->disappeared_labels.assign(reference.size(), 0);
   result->disappeared_segments.clear();
   result->disappeared_superquadrics.clear();
@@ -38,12 +39,9 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   if (!params.visibility.disappearances || !sensorOriginKnown(origin) || candidates.empty() ||
       current.empty())
     return false;
-  RangeImage::Config config;
-  config.cell_factor = params.visibility.cell_factor;
-  config.fill_factor = params.visibility.fill_factor;
-  config.max_cells = static_cast<std::size_t>(params.visibility.max_cells);
-  RangeImage image;
-  image.build(current, {}, origin, config);
+  RangeImage own;
+  if (!current_image) own.build(current, {}, origin, rangeImageConfig(params.visibility));
+  const RangeImage& image = current_image ? *current_image : own;
   if (image.empty()) return false;
   const double margin = params.visibility.disappearance_margin_factor * tau_m;
   Indices seen_through;

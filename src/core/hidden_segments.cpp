@@ -196,15 +196,16 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
                                          const std::vector<Visibility>& hidden_vis,
                                          int num_gaussians, const NearestNeighbourIndex& structure,
                                          const std::vector<std::uint8_t>& gone, double tau,
-                                         const Params& params) {
+                                         const Params& params, const RangeImage* current_image) {
   std::vector<Indices> out;
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
   if (hidden.empty() || !sensorOriginKnown(origin)) return out;
   const std::vector<Indices> segments =
       segmentNovelPoints(current, hidden, hidden_owner, num_gaussians, params.segmentation);
   if (segments.empty()) return out;
-  RangeImage image;  // the current sweep from its own origin (test 4)
-  image.build(current, {}, origin, rangeImageConfig(params.visibility));
+  RangeImage own;  // the current sweep from its own origin (test 4)
+  if (!current_image) own.build(current, {}, origin, rangeImageConfig(params.visibility));
+  const RangeImage& image = current_image ? *current_image : own;
   HiddenSegmentContext ctx;
   ctx.current = &current;
   ctx.structure = &structure;

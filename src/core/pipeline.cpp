@@ -283,16 +283,25 @@ Result Pipeline::detect(const Cloud& input) const {
   std::vector<int> owner_of(current.size(), -1);
   for (std::size_t k = 0; k < novel_points.size(); ++k) owner_of[novel_points[k]] = owner[k];
   timer.lap("segmentation");
+  // The current sweep from its own origin: disappearances and hidden segments both look
+  // through it (built once).
+  const bool hidden_rule = params_.segmentation.hidden_segments && !hidden_points.empty();
+  RangeImage current_view;
+  if (sensorOriginKnown(current.sensor_origin_.head<3>()) &&
+      (params_.visibility.disappearances || hidden_rule))
+    current_view.build(current, {}, current.sensor_origin_.head<3>(),
+                       rangeImageConfig(params_.visibility));
   // Disappearances before the hidden segments: the rule skips the reference points that left.
   const bool checked_disappearances =
-      findDisappearances(params_, ref.cloud, ref.kept, current, tau, &result);
+      findDisappearances(params_, ref.cloud, ref.kept, current, tau, &result, &current_view);
   if (checked_disappearances) timer.lap("disappearances");
-  if (params_.segmentation.hidden_segments && !hidden_points.empty()) {
+  if (hidden_rule) {
     std::vector<std::uint8_t> gone(ref.kept.size(), 0);  // per structure point
     for (std::size_t k = 0; k < ref.kept.size(); ++k)
       gone[k] = result.disappeared_labels[ref.kept[k]] > 0;
-    for (Indices& seg : novelHiddenSegments(current, hidden_points, hidden_owner, hidden_vis,
-                                            num_gaussians, ref.structure, gone, tau, params_))
+    for (Indices& seg :
+         novelHiddenSegments(current, hidden_points, hidden_owner, hidden_vis, num_gaussians,
+                             ref.structure, gone, tau, params_, &current_view))
       comps.push_back(std::move(seg));
     std::stable_sort(comps.begin(), comps.end(),
                      [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
