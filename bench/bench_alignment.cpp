@@ -16,7 +16,7 @@
 
 #include <cmath>
 
-#include "novelty_detection/alignment.h"
+#include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;

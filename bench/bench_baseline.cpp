@@ -4,8 +4,8 @@
 // (evaluation.h), and the fraction of newly visible points labelled novel.
 #include <benchmark/benchmark.h>
 
-#include "novelty_detection/baseline.h"
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/baseline.h"
+#include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;

@@ -13,10 +13,10 @@
 #include <memory>
 #include <random>
 
-#include "novelty_detection/emd.h"
-#include "novelty_detection/evaluation.h"
-#include "novelty_detection/gmm.h"
-#include "novelty_detection/novelty_selection.h"
+#include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/mixture/emd.h"
+#include "novelty_detection/mixture/gmm.h"
+#include "novelty_detection/mixture/novelty_selection.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
 

@@ -17,8 +17,8 @@
 #include <string>
 
 #include "../test/unit/synthetic_scene.h"
-#include "novelty_detection/multiscale_tree.h"
-#include "novelty_detection/preprocess.h"
+#include "novelty_detection/preprocess/multiscale_tree.h"
+#include "novelty_detection/preprocess/preprocess.h"
 #include "novelty_detection/sim/scene.h"
 
 namespace nd = novelty_detection;
@@ -212,8 +212,8 @@ double edgeDistance(const Eigen::Vector3d& p, const syn::AlignedBox& b) {
   return best;
 }
 
-/// For the README figure: per noise level, the pre-processed 30k sweep at the default scale:
-/// "r x y z size" per representative, "p x y z size edge" per point (size of its cluster,
+/// For the figure in docs/algorithm.md: per noise level, the pre-processed 30k sweep at the default
+/// scale: "r x y z size" per representative, "p x y z size edge" per point (size of its cluster,
 /// true distance to the nearest edge of the scene).
 int dumpMultiscale(const std::string& prefix) {
   for (const double noise : {0.005, 0.0316}) {

@@ -1,5 +1,5 @@
-// Cost of the visibility stages of issue 7 on a simulated ~30k-point sweep, each with the
-// accuracy it reached as counters:
+// Cost of the viewpoint stages (visibility rule, hidden segments, newly visible, disappearances) on
+// a simulated ~30k-point sweep, each with the accuracy it reached as counters:
 //   RangeImageBuild   the reference's spherical range image (built once per reference)
 //   NewlyVisible      classifying every current point (precision/recall against ray casting)
 //   Disappearances    the current range image + the see-through test + segments (F1 of the
@@ -13,11 +13,11 @@
 #include <map>
 #include <string>
 
-#include "novelty_detection/disappearance.h"
-#include "novelty_detection/novelty_segmentation.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/visibility.h"
+#include "novelty_detection/visibility/disappearance.h"
+#include "novelty_detection/visibility/visibility.h"
 
 using namespace novelty_detection;
 
@@ -123,12 +123,12 @@ void BM_Detect(benchmark::State& state) {
   const Removal& r = removal();
   Params params;
   params.superquadric.enabled = false;
-  // arg 0: every stage of issue 7 off (the point rule of visibility.h, hidden segments and
+  // arg 0: every viewpoint stage off (the point rule of visibility.h, hidden segments and
   // their continuations, newly visible, disappearances); arg 1: the defaults (all on).
   const bool on = state.range(0) != 0;
   params.segmentation.visibility_check = on;
-  params.segmentation.hidden_segments = on;
-  params.segmentation.hidden_continuations = on;
+  params.segmentation.hidden.segments = on;
+  params.segmentation.hidden.continuations = on;
   params.visibility.newly_visible = on;
   params.visibility.disappearances = on;
   Pipeline pipeline(params);

@@ -13,15 +13,15 @@ BIN="$OUT/bin"
 mkdir -p "$BIN"
 PCL_INC=$(ls -d /usr/include/pcl-1.* | tail -1)
 CXXFLAGS=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-omit-frame-pointer
-  -I"$REPO/include" -isystem "$PCL_INC" -isystem /usr/include/eigen3)
+  -I"$REPO/include" -I"$REPO/src" -isystem "$PCL_INC" -isystem /usr/include/eigen3)
 build_target() {  # name, sources...
   local name=$1; shift
   log "building $name"
   clang++ "${CXXFLAGS[@]}" "$@" -o "$BIN/$name" -lpcl_io -lpcl_common \
     -lboost_system -lboost_filesystem
 }
-build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/core/cloud_io.cpp" \
-  "$REPO/src/core/detail/pcd_reader.cpp"
+build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/io/cloud_io.cpp" \
+  "$REPO/src/io/pcd_reader.cpp"
 # Message headers are header-only; rostime/roscpp_serialization hold the few out-of-line bits.
 build_target fuzz_pointcloud2 "$REPO/test/fuzz/fuzz_pointcloud2.cpp" "$REPO/src/ros/conversions.cpp" \
   -lroscpp_serialization -lrostime

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots the multi-scale sampling of a simulated corridor sweep (README figure).
+"""Plots the multi-scale sampling of a simulated corridor sweep (figure in docs/algorithm.md).
 
 Input: files written by `bench_preprocess --dump_multiscale=PREFIX`, one per noise level:
 "r x y z size" per representative (cluster centroid) and "p x y z size edge" per

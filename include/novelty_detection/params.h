@@ -1,60 +1,80 @@
 // Every tunable of the pipeline, grouped per stage. ROS-free.
 //
-// This file is the single source of each default. config/default.yaml mirrors it (a test
-// checks that they agree), the ROS shell reads the same names from the private node handle
-// (group/name, e.g. ~preprocess/outlier_k) and the README's parameter table lists them.
+// This file is the single source of each parameter: its default (the member initialiser),
+// its description and its accepted range (the visit() entry). config/default.yaml,
+// docs/parameters.md and config/Detector.cfg are generated from it (print_params; tests keep
+// them equal), and the ROS shell reads the same names from the private node handle
+// (group/name, e.g. ~preprocess/outlier_k).
 //
-// Each group has visit(f), calling f(name, value&, doc) for every field, so that loaders,
-// writers and documentation all iterate over one list, and validate(), which throws
-// std::invalid_argument with a message naming the parameter and the accepted range.
+// Each group has visit(f), calling f(name, value&, ParamInfo) for every field, so that
+// loaders, writers, validation and documentation all iterate over one list, and
+// validate(), which throws std::invalid_argument naming the parameter and its range.
+// The file is long by design: one list of every parameter is what keeps them in one place.
 #pragma once
 
+#include <limits>
 #include <stdexcept>
 #include <string>
 
 namespace novelty_detection {
 
+/// What visit() gives with each field: its description and, for numbers, the accepted
+/// range [min, max] (bool and string fields have none; their rules are in validate()).
+struct ParamInfo {
+  const char* doc;
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+};
+
 /// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
 struct PreprocessParams {
-  int max_points = 2000000;            ///< sweeps larger than this are refused
-  bool outlier_removal = true;         ///< statistical outlier removal (Rusu et al. 2008)
-  int outlier_k = 8;                   ///< neighbours for the mean distance
-  double outlier_std_mul = 3.0;        ///< reject when mean distance > mu + std_mul * sigma
-  bool outlier_range_scaled = false;   ///< divide mean distances by the range from the sensor
-  bool ground_removal = true;          ///< RANSAC ground plane removal
-  double ground_distance_m = 0.03;     ///< inlier distance to the plane (lower bound)
-  double ground_max_angle_deg = 10.0;  ///< max angle between plane normal and +z
-  int ground_max_iterations = 200;     ///< RANSAC iterations
-  double ground_noise_k = 3.0;         ///< threshold = max(ground_distance_m, k * sigma_floor)
-  int ground_sample_points = 4096;     ///< RANSAC scores hypotheses on this many points
-  double ground_min_fraction = 0.05;   ///< a ground plane holds at least this share
-  double ground_lowest_support = 0.3;  ///< lowest plane with >= this * best support wins
+  int max_points = 2000000;
+  bool outlier_removal = true;
+  int outlier_k = 8;
+  double outlier_std_mul = 3.0;
+  bool outlier_range_scaled = false;
+  bool ground_removal = true;
+  double ground_distance_m = 0.03;
+  double ground_max_angle_deg = 10.0;
+  int ground_max_iterations = 200;
+  double ground_noise_k = 3.0;
+  int ground_sample_points = 4096;
+  double ground_min_fraction = 0.05;
+  double ground_lowest_support = 0.3;
 
   template <class F>
   void visit(F&& f) {
-    f("max_points", max_points, "sweeps with more points are refused");
-    f("outlier_removal", outlier_removal, "enable statistical outlier removal");
-    f("outlier_k", outlier_k, "neighbours used for the mean neighbour distance");
+    f("max_points", max_points, {"sweeps with more points are refused", 1, 100000000});
+    f("outlier_removal", outlier_removal, {"enable statistical outlier removal"});
+    f("outlier_k", outlier_k, {"neighbours used for the mean neighbour distance", 1, 1000});
     f("outlier_std_mul", outlier_std_mul,
-      "a point is an outlier when its mean distance exceeds mu + outlier_std_mul * sigma");
+      {"a point is an outlier when its mean distance exceeds mu + outlier_std_mul * sigma", 0.0,
+       100.0});
     f("outlier_range_scaled", outlier_range_scaled,
-      "divide each mean distance by the point's range from the cloud's sensor origin (the "
-      "spacing of a scanning sensor grows with range)");
-    f("ground_removal", ground_removal, "enable RANSAC ground plane removal");
-    f("ground_distance_m", ground_distance_m, "max distance of a ground inlier to the plane [m]");
+      {"divide each mean distance by the point's range from the cloud's sensor origin (the "
+       "spacing of a scanning sensor grows with range)"});
+    f("ground_removal", ground_removal, {"enable RANSAC ground plane removal"});
+    f("ground_distance_m", ground_distance_m,
+      {"RANSAC inlier distance to the plane, and the lower bound of the final ground threshold "
+       "(see ground_noise_k) [m]",
+       1e-4, 1.0});
     f("ground_max_angle_deg", ground_max_angle_deg,
-      "max angle between the ground normal and the fixed frame's +z [deg]");
-    f("ground_max_iterations", ground_max_iterations, "RANSAC iterations for the ground plane");
+      {"max angle between the ground normal and the fixed frame's +z [deg]", 0.0, 90.0});
+    f("ground_max_iterations", ground_max_iterations,
+      {"RANSAC iterations for the ground plane", 1, 100000});
     f("ground_noise_k", ground_noise_k,
-      "ground inliers lie within max(ground_distance_m, ground_noise_k * sigma) of the plane, "
-      "sigma the floor's noise estimated robustly from the data (Gaussian plus uniform clutter)");
+      {"ground inliers lie within max(ground_distance_m, ground_noise_k * sigma) of the plane, "
+       "sigma the floor's noise estimated robustly from the data (Gaussian plus uniform clutter)",
+       0.0, 100.0});
     f("ground_sample_points", ground_sample_points,
-      "RANSAC scores plane hypotheses on a random subset of this many points");
+      {"RANSAC scores plane hypotheses on a random subset of this many points", 3, 100000000});
     f("ground_min_fraction", ground_min_fraction,
-      "no ground is removed unless the plane holds at least this fraction of the points");
+      {"no ground is removed unless the plane holds at least this fraction of the points", 0.0,
+       1.0});
     f("ground_lowest_support", ground_lowest_support,
-      "of the near-horizontal planes holding at least this fraction of the best one's "
-      "support, the one whose inliers lie lowest is the ground (not a table top or the ceiling)");
+      {"of the near-horizontal planes holding at least this fraction of the best one's "
+       "support, the one whose inliers lie lowest is the ground (not a table top or the ceiling)",
+       0.0, 1.0});
   }
   void validate() const;
 };
@@ -67,51 +87,57 @@ struct PreprocessParams {
 /// outlier removal), 2-3x denser near edges than on walls. The noise-aware rule keeps that
 /// behaviour on noisy sensors, where Pauly's fixed sigma_max reads the noise as curvature.
 struct MultiScaleParams {
-  int n_max = 24;             ///< split clusters larger than this
-  double sigma_max = 0.01;    ///< split clusters whose surface variation exceeds this
-  bool noise_aware = true;    ///< discount the estimated sensor noise from the variation
-  double noise_factor = 2.0;  ///< variance discounted = noise_factor * estimated variance
+  int n_max = 24;
+  double sigma_max = 0.01;
+  bool noise_aware = true;
+  double noise_factor = 2.0;
 
   template <class F>
   void visit(F&& f) {
-    f("n_max", n_max, "clusters with more points are split (coarse scale)");
-    f("sigma_max", sigma_max, "clusters with a larger surface variation are split");
+    f("n_max", n_max, {"clusters with more points are split (coarse scale)", 1, 1000000});
+    f("sigma_max", sigma_max,
+      {"clusters with a larger surface variation are split", 0.0, 1.0 / 3.0});
     f("noise_aware", noise_aware,
-      "compute the surface variation from l0 minus noise_factor times the noise variance "
-      "estimated from the tree (a cluster as thin as the noise counts as flat)");
-    f("noise_factor", noise_factor, "multiple of the estimated noise variance discounted");
+      {"compute the surface variation from l0 minus noise_factor times the noise variance "
+       "estimated from the tree (a cluster as thin as the noise counts as flat)"});
+    f("noise_factor", noise_factor,
+      {"multiple of the estimated noise variance discounted", 0.0, 100.0});
   }
   void validate() const;
 };
 
 /// Gaussian mixture fitting by EM (paper Sec. IV-B; rules in gmm.h).
 struct GmmParams {
-  int max_components = 64;            ///< cap on the number of Gaussians (the paper's speed cap)
-  double points_per_component = 300;  ///< K = clamp(ceil(points / this), 1, max_components)
-  int max_fit_points = 1500;      ///< EM runs on at most about this many cluster representatives
-  int max_iterations = 30;        ///< EM iteration cap
-  double tolerance = 1e-3;        ///< stop when the mean log-likelihood gains less [nats]
-  double min_variance_m2 = 1e-4;  ///< added to covariance diagonals (planar clusters)
-  bool current_from_reference = true;  ///< start the current EM from the reference mixture
-  int max_extra_components = 16;       ///< extra current Gaussians seeded where the map has none
-  int seed = 42;                       ///< RNG seed (determinism)
+  int max_components = 64;
+  double points_per_component = 300;
+  int max_fit_points = 1500;
+  int max_iterations = 30;
+  double tolerance = 1e-3;
+  double min_variance_m2 = 1e-4;
+  bool current_from_reference = true;
+  int max_extra_components = 16;
+  int seed = 42;
 
   template <class F>
   void visit(F&& f) {
-    f("max_components", max_components, "maximum number of Gaussians per mixture");
+    f("max_components", max_components, {"maximum number of Gaussians per mixture", 1, 4096});
     f("points_per_component", points_per_component,
-      "number of Gaussians = clamp(ceil(points / points_per_component), 1, max_components)");
+      {"number of Gaussians = clamp(ceil(points / points_per_component), 1, max_components)", 1.0,
+       1e9});
     f("max_fit_points", max_fit_points,
-      "EM is fitted on the multi-scale cut, coarsened until it has about this many clusters");
-    f("max_iterations", max_iterations, "EM iteration cap");
-    f("tolerance", tolerance, "EM stops when the mean log-likelihood gains less than this");
-    f("min_variance_m2", min_variance_m2, "covariance regularisation added to the diagonal [m^2]");
+      {"EM is fitted on the multi-scale cut, coarsened until it has about this many clusters", 1,
+       100000000});
+    f("max_iterations", max_iterations, {"EM iteration cap", 1, 10000});
+    f("tolerance", tolerance,
+      {"EM stops when the mean log-likelihood gains less than this", 0.0, 1.0});
+    f("min_variance_m2", min_variance_m2,
+      {"covariance regularisation added to the diagonal [m^2]", 1e-12, 1.0});
     f("current_from_reference", current_from_reference,
-      "start EM on the current sweep from the reference mixture plus Gaussians seeded on "
-      "points far from the map (else k-means++ from scratch)");
+      {"start EM on the current sweep from the reference mixture plus Gaussians seeded on "
+       "points far from the map (else k-means++ from scratch)"});
     f("max_extra_components", max_extra_components,
-      "maximum number of Gaussians seeded on current points far from the reference");
-    f("seed", seed, "random seed; results are deterministic for a seed");
+      {"maximum number of Gaussians seeded on current points far from the reference", 0, 4096});
+    f("seed", seed, {"random seed; results are deterministic for a seed", 0, 2147483647});
   }
   void validate() const;
 };
@@ -119,148 +145,179 @@ struct GmmParams {
 /// Earth Mover's Distance between mixtures and the greedy novelty selection (Algorithm 1;
 /// the stop rule is stated in novelty_selection.h).
 struct SelectionParams {
-  std::string ground_distance = "wasserstein";  ///< "wasserstein" or "euclidean"
-  double min_relative_decrease = 0.02;  ///< stop when a removal lowers EMD by less (fraction)
-  double u_th = 0.0;                    ///< stop when EMD falls below this [m]
-  double u_th_noise_factor = 0.1;       ///< ... or below this times the novelty distance
-  int max_novel_gaussians = 32;         ///< cap on selected Gaussians
+  std::string ground_distance = "wasserstein";
+  double min_relative_decrease = 0.02;
+  double u_th = 0.0;
+  double u_th_noise_factor = 0.1;
+  int max_novel_gaussians = 32;
 
   template <class F>
   void visit(F&& f) {
     f("ground_distance", ground_distance,
-      "ground distance between Gaussians: wasserstein (2-Wasserstein) or euclidean (means)");
+      {"ground distance between Gaussians: wasserstein (2-Wasserstein) or euclidean (means)"});
     f("min_relative_decrease", min_relative_decrease,
-      "greedy selection stops when the best removal lowers the EMD by less than this fraction");
-    f("u_th", u_th, "greedy selection stops when the EMD falls below this [m]");
+      {"greedy selection stops when the best removal lowers the EMD by less than this fraction",
+       0.0, 1.0});
+    f("u_th", u_th, {"greedy selection stops when the EMD falls below this [m]", 0.0, 1000.0});
     f("u_th_noise_factor", u_th_noise_factor,
-      "... or below u_th_noise_factor times the data-derived novelty distance "
-      "(segmentation/novelty_distance_factor)");
-    f("max_novel_gaussians", max_novel_gaussians, "maximum number of novel Gaussians");
+      {"... or below u_th_noise_factor times the data-derived novelty distance "
+       "(segmentation/novelty_distance_factor)",
+       0.0, 1000.0});
+    f("max_novel_gaussians", max_novel_gaussians, {"maximum number of novel Gaussians", 0, 4096});
   }
   void validate() const;
+};
+
+/// Candidates the reference could not see (occluded from its sensor origin or out of its
+/// view): they are kept out of the novelties unless one of these rules says otherwise (rules
+/// in segmentation/hidden_segments.h). Part of the segmentation group; distances scale with
+/// tau, the novelty distance.
+struct HiddenParams {
+  bool unexplained = false;
+  bool segments = true;
+  bool continuations = true;
+  double ring_factor = 4.0;
+  double plane_factor = 0.5;
+  double max_coplanar = 0.25;
+  double outline_factor = 2.0;
+  double min_free_edge = 0.25;
+
+  template <class F>
+  void visit(F&& f) {
+    f("hidden_unexplained", unexplained,
+      {"a point the reference could not see is still novel when the reference mixture does not "
+       "explain it (density below the map_likelihood_quantile of the map's own points)"});
+    f("hidden_segments", segments,
+      {"a segment of candidates hidden from the reference is novel when it is mostly occluded, "
+       "a plane patch, not a coplanar continuation of the map structure around it and has "
+       "free edges in the current view (a door leaf swung into space the old leaf hid; rule "
+       "in hidden_segments.h); a revealed wall is none of the last two"});
+    f("hidden_continuations", continuations,
+      {"candidates hidden from the map that are linked to a novel segment (closer than the "
+       "segments' link radius, directly or through each other) join it: a moved object "
+       "reaching into the map's shadow is one object (hidden_segments.h)"});
+    f("hidden_ring_factor", ring_factor,
+      {"hidden segments: reference structure (no ground, not disappeared) within "
+       "hidden_ring_factor * tau of the segment is what it could continue",
+       0.0, 1000.0});
+    f("hidden_plane_factor", plane_factor,
+      {"hidden segments: a structure point within hidden_plane_factor * tau of the segment's "
+       "plane continues it",
+       0.0, 1000.0});
+    f("hidden_max_coplanar", max_coplanar,
+      {"hidden segments: the segment continues the map (revealed, not novel) when at least "
+       "this share of the structure around it lies on its plane",
+       0.0, 1.0});
+    f("hidden_outline_factor", outline_factor,
+      {"hidden segments: the current sweep's rays within hidden_outline_factor * tau (at the "
+       "segment's range) around the segment form its outline",
+       0.0, 1000.0});
+    f("hidden_min_free_edge", min_free_edge,
+      {"hidden segments: novel only when at least this share of the outline rays that reach "
+       "its plane or beyond reach past it (free edges: it stands in space)",
+       0.0, 1.0});
+  }
 };
 
 /// Labelling every input point from the novel Gaussians (ChoosePtfromGaussian).
 struct SegmentationParams {
-  double posterior_threshold = 0.5;      ///< min posterior of the novel Gaussians
-  double novelty_distance_factor = 6.0;  ///< tau = median + factor * 1.4826 MAD of NN distances
-  double min_novelty_distance_m = 0.0;   ///< floor of tau [m]
-  double link_factor = 2.5;              ///< link radius = factor * novel-point spacing
-  double merge_gap_factor = 4.0;         ///< pieces of one Gaussian this close merge
-  double merge_floor_gap_factor = 2.0;   ///< ... and this close on the floor plane (x, y)
-  int min_segment_points = 20;           ///< smaller segments are dropped
-  double map_likelihood_quantile = 0.0;  ///< points likelier under Gamma are not novel (0: off)
-  bool visibility_check = true;          ///< novel points must lie where the map saw through
-  bool hidden_unexplained = false;       ///< points hidden from the map may be novel if unexplained
-  bool hidden_segments = true;           ///< segments hidden from the map may be novel (rule below)
-  bool hidden_continuations = true;      ///< hidden points continuing a novel segment join it
-  double hidden_ring_factor = 4.0;       ///< map structure within factor * tau of the segment
-  double hidden_plane_factor = 0.5;      ///< ... lies on its plane within factor * tau
-  double hidden_max_coplanar = 0.25;     ///< continuation of the map when this share is coplanar
-  double hidden_outline_factor = 2.0;    ///< outline ring of factor * tau around it (current view)
-  double hidden_min_free_edge = 0.25;    ///< min share of outline rays reaching past its plane
+  double posterior_threshold = 0.5;
+  double novelty_distance_factor = 6.0;
+  double min_novelty_distance_m = 0.0;
+  double link_factor = 2.5;
+  double merge_gap_factor = 4.0;
+  double merge_floor_gap_factor = 2.0;
+  int min_segment_points = 20;
+  double map_likelihood_quantile = 0.0;
+  bool visibility_check = true;
+  HiddenParams hidden;
 
   template <class F>
   void visit(F&& f) {
     f("posterior_threshold", posterior_threshold,
-      "a point is novel when the novel Gaussians' posterior exceeds this");
+      {"a point is novel when the novel Gaussians' posterior exceeds this", 0.0, 1.0});
     f("novelty_distance_factor", novelty_distance_factor,
-      "a novel point must lie farther from the map than tau = median + factor * 1.4826 * MAD "
-      "of the current-to-reference nearest-neighbour distances");
-    f("min_novelty_distance_m", min_novelty_distance_m, "lower bound of tau [m]");
+      {"a novel point must lie farther from the map than tau = median + factor * 1.4826 * MAD "
+       "of the current-to-reference nearest-neighbour distances",
+       0.0, 1000.0});
+    f("min_novelty_distance_m", min_novelty_distance_m, {"lower bound of tau [m]", 0.0, 100.0});
     f("link_factor", link_factor,
-      "novel points closer than link_factor * their median 4-NN spacing join one segment");
+      {"novel points closer than link_factor * their median 4-NN spacing join one segment", 0.1,
+       100.0});
     f("merge_gap_factor", merge_gap_factor,
-      "connected pieces mostly owned by the same novel Gaussian merge into one segment when "
-      "their bounding boxes are closer than merge_gap_factor link radii");
+      {"connected pieces mostly owned by the same novel Gaussian merge into one segment when "
+       "their bounding boxes are closer than merge_gap_factor link radii",
+       0.0, 1000.0});
     f("merge_floor_gap_factor", merge_floor_gap_factor,
-      "and only when their footprints on the floor (x, y) are closer than this many link "
-      "radii: the gaps between tilt lines on one object are vertical, while two objects side "
-      "by side are apart on the floor");
-    f("min_segment_points", min_segment_points, "segments with fewer points are dropped");
+      {"and only when their footprints on the floor (x, y) are closer than this many link "
+       "radii: the gaps between tilt lines on one object are vertical, while two objects side "
+       "by side are apart on the floor",
+       0.0, 1000.0});
+    f("min_segment_points", min_segment_points,
+      {"segments with fewer points are dropped", 1, 100000000});
     f("map_likelihood_quantile", map_likelihood_quantile,
-      "a point whose density under the reference mixture exceeds this quantile of the map's "
-      "own points' densities lies on a mapped surface and is not novel (0 disables)");
+      {"a point whose density under the reference mixture exceeds this quantile of the map's "
+       "own points' densities lies on a mapped surface and is not novel (0 disables)",
+       0.0, 1.0});
     f("visibility_check", visibility_check,
-      "a novel point must lie in space the reference sweep saw as free (needs the reference "
-      "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin); see the "
-      "visibility group");
-    f("hidden_unexplained", hidden_unexplained,
-      "a point the reference could not see is still novel when the reference mixture does not "
-      "explain it (density below the map_likelihood_quantile of the map's own points)");
-    f("hidden_segments", hidden_segments,
-      "a segment of candidates hidden from the reference is novel when it is mostly occluded, "
-      "a plane patch, not a coplanar continuation of the map structure around it and has "
-      "free edges in the current view (a door leaf swung into space the old leaf hid; rule "
-      "in hidden_segments.h); a revealed wall is none of the last two");
-    f("hidden_continuations", hidden_continuations,
-      "candidates hidden from the map that are linked to a novel segment (closer than the "
-      "segments' link radius, directly or through each other) join it: a moved object "
-      "reaching into the map's shadow is one object (hidden_segments.h)");
-    f("hidden_ring_factor", hidden_ring_factor,
-      "hidden segments: reference structure (no ground, not disappeared) within "
-      "hidden_ring_factor * tau of the segment is what it could continue");
-    f("hidden_plane_factor", hidden_plane_factor,
-      "hidden segments: a structure point within hidden_plane_factor * tau of the segment's "
-      "plane continues it");
-    f("hidden_max_coplanar", hidden_max_coplanar,
-      "hidden segments: the segment continues the map (revealed, not novel) when at least "
-      "this share of the structure around it lies on its plane");
-    f("hidden_outline_factor", hidden_outline_factor,
-      "hidden segments: the current sweep's rays within hidden_outline_factor * tau (at the "
-      "segment's range) around the segment form its outline");
-    f("hidden_min_free_edge", hidden_min_free_edge,
-      "hidden segments: novel only when at least this share of the outline rays that reach "
-      "its plane or beyond reach past it (free edges: it stands in space)");
+      {"a novel point must lie in space the reference sweep saw as free (needs the reference "
+       "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin); see the "
+       "visibility group"});
+    hidden.visit(f);
   }
   void validate() const;
 };
 
-/// Visibility reasoning (issue 7): what the reference sweep observed as free, occupied or
+/// Visibility reasoning: what the reference sweep observed as free, occupied or
 /// unknown, as a spherical range image from its sensor origin (rules in visibility.h), the
 /// newly visible points and the disappearances. Sizes and margins scale with the data: the
 /// cell with the sweep's angular spacing, margins with tau (segmentation group), the data's
 /// noise and sampling mismatch.
 struct VisibilityParams {
-  double cell_factor = 1.0;    ///< range image cell = factor * mean angular spacing of the sweep
-  double fill_factor = 1.5;    ///< gaps between scan lines up to factor * their p90 are filled
-  double margin_factor = 1.0;  ///< free / occluded when the range differs by > factor * tau
-  int max_cells = 4000000;     ///< cap on range image cells (the cell grows to stay below)
-  double slack_factor = 0.05;  ///< own-cell test widened by factor * the 3x3 range spread
-  bool newly_visible = true;   ///< flag current points in space the reference never observed
-  bool disappearances = true;  ///< find reference points the current sweep sees through
-  double disappearance_margin_factor = 1.0;  ///< ... by more than factor * tau
-  int min_disappeared_points = 20;           ///< smaller disappeared segments are dropped
+  double cell_factor = 1.0;
+  double fill_factor = 1.5;
+  double margin_factor = 1.0;
+  int max_cells = 4000000;
+  double slack_factor = 0.05;
+  bool newly_visible = true;
+  bool disappearances = true;
+  double disappearance_margin_factor = 1.0;
+  int min_disappeared_points = 20;
 
   template <class F>
   void visit(F&& f) {
     f("cell_factor", cell_factor,
-      "cell of the spherical range images = cell_factor * the sweep's mean angular spacing "
-      "sqrt(covered solid angle / returns)");
+      {"cell of the spherical range images = cell_factor * the sweep's mean angular spacing "
+       "sqrt(covered solid angle / returns)",
+       0.1, 100.0});
     f("fill_factor", fill_factor,
-      "empty runs of range image cells between two returns (the gaps between scan lines) up "
-      "to fill_factor * the 90th percentile of such runs are filled from the two returns: "
-      "seen, not unknown");
+      {"empty runs of range image cells between two returns (the gaps between scan lines) up "
+       "to fill_factor * the 90th percentile of such runs are filled from the two returns: "
+       "seen, not unknown",
+       0.0, 100.0});
     f("margin_factor", margin_factor,
-      "a point is in free space when its range from the reference origin is shorter than the "
-      "reference's returns around its ray by more than margin_factor * tau, occluded when "
-      "longer by more than that");
-    f("max_cells", max_cells, "upper bound on the cells of a range image");
+      {"a point is in free space when its range from the reference origin is shorter than the "
+       "reference's returns around its ray by more than margin_factor * tau, occluded when "
+       "longer by more than that",
+       0.0, 100.0});
+    f("max_cells", max_cells, {"upper bound on the cells of a range image", 1000, 100000000});
     f("slack_factor", slack_factor,
-      "a current point far from the map is compared with its own cell's ranges widened by "
-      "slack_factor * the spread of ranges in the 3x3 cells around it (grazing surfaces, "
-      "depth edges); disappearances use the whole 3x3 window");
+      {"a current point far from the map is compared with its own cell's ranges widened by "
+       "slack_factor * the spread of ranges in the 3x3 cells around it (grazing surfaces, "
+       "depth edges); disappearances use the whole 3x3 window",
+       0.0, 10.0});
     f("newly_visible", newly_visible,
-      "report current points far from the map in space the reference never observed "
-      "(occluded or out of view) as newly visible");
+      {"report current points far from the map in space the reference never observed "
+       "(occluded or out of view) as newly visible"});
     f("disappearances", disappearances,
-      "report reference points the current sweep sees through (needs the current sensor "
-      "origin, sensor_origin_ / PCD VIEWPOINT; skipped when it is the origin)");
+      {"report reference points the current sweep sees through (needs the current sensor "
+       "origin, sensor_origin_ / PCD VIEWPOINT; skipped when it is the origin)"});
     f("disappearance_margin_factor", disappearance_margin_factor,
-      "a reference point has disappeared when the current returns around its ray from the "
-      "current origin are all farther than its range + disappearance_margin_factor * tau");
+      {"a reference point has disappeared when the current returns around its ray from the "
+       "current origin are all farther than its range + disappearance_margin_factor * tau",
+       0.0, 100.0});
     f("min_disappeared_points", min_disappeared_points,
-      "disappeared segments with fewer reference points are dropped");
+      {"disappeared segments with fewer reference points are dropped", 1, 100000000});
   }
   void validate() const;
 };
@@ -269,87 +326,99 @@ struct VisibilityParams {
 /// Sizes are bounded relative to h, the largest half extent of the fitted points along their
 /// principal axes, so the bounds scale with the data.
 struct SuperquadricParams {
-  bool enabled = true;               ///< fit superquadrics to segments
-  double epsilon_min = 0.1;          ///< lower bound of e1, e2
-  double epsilon_max = 1.9;          ///< upper bound of e1, e2
-  int max_iterations = 50;           ///< LM iteration cap per fit
-  double function_tolerance = 1e-6;  ///< LM stops when the cost changes relatively less
-  bool autodiff = false;             ///< Jets instead of the analytic Jacobian (reference)
-  double min_size_m = 0.005;         ///< absolute lower bound of a1, a2, a3 [m]
-  double min_size_fraction = 0.05;   ///< sizes >= this fraction of h (no flat-disc collapse)
-  double max_size_factor = 1.25;     ///< sizes <= this multiple of h (no explosion)
-  std::string robust_loss = "none";  ///< "none", "huber" or "cauchy"
-  double robust_loss_scale = 0.2;    ///< loss scale as a fraction of sqrt(a1 a2 a3)
-  int screening_points = 64;         ///< points used to compare the initial guesses
-  int screening_iterations = 5;      ///< LM iterations per initial guess while comparing
-  int max_fit_points = 600;          ///< a segment's fine points are subsampled to this
-  int split_max_points = 2400;       ///< split and merge works on at most this many points
-  int split_min_points = 40;         ///< a part is not split into halves smaller than this
-  int split_fit_points = 80;         ///< parts are subsampled to this while splitting/merging
-  int split_iterations = 15;         ///< LM iteration cap of the fits inside split and merge
-  double split_gain = 0.9;           ///< split when halves' mean error < split_gain * parent's
-  double split_force_factor = 1.25;  ///< split regardless of gain above this x exact error
-  double merge_tolerance = 0.25;     ///< slack of the merge rule (see split_merge.h)
-  double error_floor_m = 0.002;      ///< fits with a smaller mean radial error are exact [m]
-  double noise_factor = 1.5;         ///< ... and so are fits within this x estimated noise
-  double neighbour_distance_factor = 1.0;  ///< parts touch within this x neighbourhood radius
-  int max_parts = 8;                       ///< cap on superquadrics per segment
+  bool enabled = true;
+  double epsilon_min = 0.1;
+  double epsilon_max = 1.9;
+  int max_iterations = 50;
+  double function_tolerance = 1e-6;
+  bool autodiff = false;
+  double min_size_m = 0.005;
+  double min_size_fraction = 0.05;
+  double max_size_factor = 1.25;
+  std::string robust_loss = "none";
+  double robust_loss_scale = 0.2;
+  int screening_points = 64;
+  int screening_iterations = 5;
+  int max_fit_points = 600;
+  int split_max_points = 2400;
+  int split_min_points = 40;
+  int split_fit_points = 80;
+  int split_iterations = 15;
+  double split_gain = 0.9;
+  double split_force_factor = 1.25;
+  double merge_tolerance = 0.25;
+  double error_floor_m = 0.002;
+  double noise_factor = 1.5;
+  double neighbour_distance_factor = 1.0;
+  int max_parts = 8;
 
   template <class F>
   void visit(F&& f) {
-    f("enabled", enabled, "fit superquadrics to the novelty segments");
-    f("epsilon_min", epsilon_min, "lower bound of the shape exponents e1, e2");
-    f("epsilon_max", epsilon_max, "upper bound of the shape exponents e1, e2");
-    f("max_iterations", max_iterations, "Levenberg-Marquardt iteration cap per fit");
+    f("enabled", enabled, {"fit superquadrics to the novelty segments"});
+    f("epsilon_min", epsilon_min, {"lower bound of the shape exponents e1, e2", 0.01, 2.0});
+    f("epsilon_max", epsilon_max, {"upper bound of the shape exponents e1, e2", 0.01, 4.0});
+    f("max_iterations", max_iterations, {"Levenberg-Marquardt iteration cap per fit", 1, 10000});
     f("function_tolerance", function_tolerance,
-      "Levenberg-Marquardt stops when the cost changes relatively less than this");
+      {"Levenberg-Marquardt stops when the cost changes relatively less than this", 0.0, 1.0});
     f("autodiff", autodiff,
-      "use automatic differentiation instead of the (equal, faster) analytic Jacobian");
-    f("min_size_m", min_size_m, "absolute lower bound of the half sizes a1, a2, a3 [m]");
+      {"use automatic differentiation instead of the (equal, faster) analytic Jacobian"});
+    f("min_size_m", min_size_m,
+      {"absolute lower bound of the half sizes a1, a2, a3 [m]", 1e-6, 100.0});
     f("min_size_fraction", min_size_fraction,
-      "half sizes are at least this fraction of the points' largest half extent");
+      {"half sizes are at least this fraction of the points' largest half extent", 0.0, 1.0});
     f("max_size_factor", max_size_factor,
-      "half sizes (and the centre's offset) are at most this multiple of the largest half "
-      "extent");
-    f("robust_loss", robust_loss, "robust loss on eq. 3's residuals: none, huber or cauchy");
+      {"half sizes (and the centre's offset) are at most this multiple of the largest half "
+       "extent",
+       1.0, 100.0});
+    f("robust_loss", robust_loss, {"robust loss on eq. 3's residuals: none, huber or cauchy"});
     f("robust_loss_scale", robust_loss_scale,
-      "robust loss scale as a fraction of sqrt(a1 a2 a3) of the start model");
-    f("screening_points", screening_points, "points used to compare the initial guesses of a fit");
+      {"robust loss scale as a fraction of sqrt(a1 a2 a3) of the start model", 1e-6, 100.0});
+    f("screening_points", screening_points,
+      {"points used to compare the initial guesses of a fit", 11, 100000000});
     f("screening_iterations", screening_iterations,
-      "Levenberg-Marquardt iterations per initial guess while comparing them");
+      {"Levenberg-Marquardt iterations per initial guess while comparing them", 0, 10000});
     f("max_fit_points", max_fit_points,
-      "a segment's points are deterministically subsampled to at most this many");
+      {"a segment's points are deterministically subsampled to at most this many", 11, 100000000});
     f("split_max_points", split_max_points,
-      "split and merge works on a deterministic subsample of at most this many points");
-    f("split_min_points", split_min_points, "a part is not split into halves smaller than this");
+      {"split and merge works on a deterministic subsample of at most this many points", 11,
+       100000000});
+    f("split_min_points", split_min_points,
+      {"a part is not split into halves smaller than this", 4, 100000000});
     f("split_fit_points", split_fit_points,
-      "parts are subsampled to at most this many points for split and merge fits");
+      {"parts are subsampled to at most this many points for split and merge fits", 11, 100000000});
     f("split_iterations", split_iterations,
-      "Levenberg-Marquardt iteration cap of the fits that only rank splits and merges (the "
-      "final parts are polished with max_iterations)");
+      {"Levenberg-Marquardt iteration cap of the fits that only rank splits and merges (the "
+       "final parts are polished with max_iterations)",
+       1, 10000});
     f("split_gain", split_gain,
-      "split a part when the halves' points-weighted mean distance is below "
-      "split_gain times the part's");
+      {"split a part when the halves' points-weighted mean distance is below "
+       "split_gain times the part's",
+       0.0, 1.0});
     f("split_force_factor", split_force_factor,
-      "a part whose mean distance exceeds split_force_factor times the exact-fit level is "
-      "split even if its halves do not fit better");
+      {"a part whose mean distance exceeds split_force_factor times the exact-fit level is "
+       "split even if its halves do not fit better",
+       1.0, 1e6});
     f("merge_tolerance", merge_tolerance,
-      "merge two neighbours when the merged fit is exact, or its mean distance is at most "
-      "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
-      "merge_tolerance) times their sum");
+      {"merge two neighbours when the merged fit is exact, or its mean distance is at most "
+       "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
+       "merge_tolerance) times their sum",
+       0.0, 10.0});
     f("error_floor_m", error_floor_m,
-      "a fit with a smaller mean distance to its points is exact: it is not split, merges into it "
-      "are "
-      "allowed [m]");
+      {"a fit with a smaller mean distance to its points is exact: it is not split, merges into it "
+       "are "
+       "allowed [m]",
+       0.0, 10.0});
     f("noise_factor", noise_factor,
-      "a fit whose mean distance is below noise_factor times the estimated sensor noise "
-      "(local plane RMS) is exact: it is not split, merges into it are allowed; a part is also "
-      "not split when its mean distance is below (1 + merge_tolerance) sqrt(2/pi) times the "
-      "noise in its own residuals");
+      {"a fit whose mean distance is below noise_factor times the estimated sensor noise "
+       "(local plane RMS) is exact: it is not split, merges into it are allowed; a part is also "
+       "not split when its mean distance is below (1 + merge_tolerance) sqrt(2/pi) times the "
+       "noise in its own residuals",
+       0.0, 100.0});
     f("neighbour_distance_factor", neighbour_distance_factor,
-      "two parts are neighbours when their points come closer than this times the radius of a "
-      "typical two-dimensional 12-point neighbourhood");
-    f("max_parts", max_parts, "maximum number of superquadrics per segment");
+      {"two parts are neighbours when their points come closer than this times the radius of a "
+       "typical two-dimensional 12-point neighbourhood",
+       0.5, 100.0});
+    f("max_parts", max_parts, {"maximum number of superquadrics per segment", 1, 1024});
   }
   void validate() const;
 };
@@ -357,59 +426,67 @@ struct SuperquadricParams {
 /// Fine alignment of the current sweep against the reference before comparison
 /// (alignment.h): robust point-to-plane ICP on reference planes, bounded and reported.
 struct AlignmentParams {
-  bool enabled = false;                     ///< refine the sweep's pose against the reference
-  double max_translation_m = 0.2;           ///< larger corrections are rejected [m]
-  double max_rotation_deg = 5.0;            ///< larger corrections are rejected [deg]
-  int max_iterations = 30;                  ///< Gauss-Newton iteration cap
-  double convergence_translation_m = 1e-4;  ///< stop when a step moves less [m] ...
-  double convergence_rotation_deg = 0.002;  ///< ... and turns less [deg]
-  double robust_scale_factor = 3.0;         ///< Tukey scale = factor * robust sigma (>= noise)
-  double gate_shrink = 0.5;                 ///< correspondence distance shrink factor
-  int sample_points = 3000;                 ///< the sweep is sampled to about this many points
-  int plane_cell_points = 100;              ///< a map point's plane cell holds about this many
-  double planarity = 0.25;                  ///< a cell is a plane when l0 < planarity * l1
-  double degeneracy_ratio = 0.001;          ///< directions with less information are not corrected
-  double min_inlier_fraction = 0.25;        ///< fewer inliers reject the correction
-  int min_correspondences = 50;             ///< fewer matched samples reject the correction
+  bool enabled = false;
+  double max_translation_m = 0.2;
+  double max_rotation_deg = 5.0;
+  int max_iterations = 30;
+  double convergence_translation_m = 1e-4;
+  double convergence_rotation_deg = 0.002;
+  double robust_scale_factor = 3.0;
+  double gate_shrink = 0.5;
+  int sample_points = 3000;
+  int plane_cell_points = 100;
+  double planarity = 0.25;
+  double degeneracy_ratio = 0.001;
+  double min_inlier_fraction = 0.25;
+  int min_correspondences = 50;
 
   template <class F>
   void visit(F&& f) {
     f("enabled", enabled,
-      "refine the current sweep's pose against the reference (point-to-plane ICP) before "
-      "comparison; off when localisation is trusted");
+      {"refine the current sweep's pose against the reference (point-to-plane ICP) before "
+       "comparison; off when localisation is trusted"});
     f("max_translation_m", max_translation_m,
-      "a correction moving the sensor origin farther is rejected (pose left unchanged) [m]");
+      {"a correction moving the sensor origin farther is rejected (pose left unchanged) [m]", 0.0,
+       100.0});
     f("max_rotation_deg", max_rotation_deg,
-      "a correction rotating more is rejected (pose left unchanged) [deg]");
-    f("max_iterations", max_iterations, "Gauss-Newton iteration cap");
+      {"a correction rotating more is rejected (pose left unchanged) [deg]", 0.0, 180.0});
+    f("max_iterations", max_iterations, {"Gauss-Newton iteration cap", 1, 1000});
     f("convergence_translation_m", convergence_translation_m,
-      "converged when a step moves the sample by less than this [m] ...");
+      {"converged when a step moves the sample by less than this [m] ...", 0.0, 1.0});
     f("convergence_rotation_deg", convergence_rotation_deg,
-      "... and rotates it by less than this, once the gate reached the noise level [deg]");
+      {"... and rotates it by less than this, once the gate reached the noise level [deg]", 0.0,
+       10.0});
     f("robust_scale_factor", robust_scale_factor,
-      "Tukey biweight scale on point-to-plane residuals: this many robust sigmas (1.4826 MAD) "
-      "of the residuals, at least this many times the map's point noise (median RMS "
-      "thickness of its planes), at most the correspondence distance");
+      {"Tukey biweight scale on point-to-plane residuals: this many robust sigmas (1.4826 MAD) "
+       "of the residuals, at least this many times the map's point noise (median RMS "
+       "thickness of its planes), at most the correspondence distance",
+       0.5, 100.0});
     f("gate_shrink", gate_shrink,
-      "the correspondence distance starts at twice the bound and is multiplied by this "
-      "whenever a step moved the sample by less than a quarter of it, down to the noise "
-      "cut-off");
+      {"the correspondence distance starts at twice the bound and is multiplied by this "
+       "whenever a step moved the sample by less than a quarter of it, down to the noise "
+       "cut-off",
+       0.05, 1.0});
     f("sample_points", sample_points,
-      "the sweep is reduced to about this many points (every k-th in input order, weighted by "
-      "1 / samples in their voxel, voxel size from the data)");
+      {"the sweep is reduced to about this many points (every k-th in input order, weighted by "
+       "1 / samples in their voxel, voxel size from the data)",
+       10, 10000000});
     f("plane_cell_points", plane_cell_points,
-      "reference planes are fitted in cubic cells sized so that the cell of a typical map point "
-      "holds about this many points (median over points)");
+      {"reference planes are fitted in cubic cells sized so that the cell of a typical map point "
+       "holds about this many points (median over points)",
+       5, 100000});
     f("planarity", planarity,
-      "a reference cell is a plane when its smallest covariance eigenvalue is below "
-      "planarity times the middle one (lines and corners are not used)");
+      {"a reference cell is a plane when its smallest covariance eigenvalue is below "
+       "planarity times the middle one (lines and corners are not used)",
+       0.0, 1.0});
     f("degeneracy_ratio", degeneracy_ratio,
-      "pose directions whose information (normal-equation eigenvalue, rotations scaled by "
-      "the sample radius) is below this fraction of the largest are left uncorrected");
+      {"pose directions whose information (normal-equation eigenvalue, rotations scaled by "
+       "the sample radius) is below this fraction of the largest are left uncorrected",
+       0.0, 1.0});
     f("min_inlier_fraction", min_inlier_fraction,
-      "a correction with a smaller share of inlier samples is rejected");
+      {"a correction with a smaller share of inlier samples is rejected", 0.0, 1.0});
     f("min_correspondences", min_correspondences,
-      "a correction supported by fewer matched samples is rejected");
+      {"a correction supported by fewer matched samples is rejected", 6, 100000000});
   }
   void validate() const;
 };
@@ -417,13 +494,14 @@ struct AlignmentParams {
 /// How the work is spread over the CPU's cores. Results do not depend on it: parallel
 /// loops only compute independent items (superquadric fits) into fixed slots.
 struct ComputeParams {
-  int threads = 0;  ///< threads; 0 = hardware concurrency capped at 8; 1 = serial
+  int threads = 0;
 
   template <class F>
   void visit(F&& f) {
     f("threads", threads,
-      "threads for the superquadric fits (0: the hardware concurrency, at most 8; 1: "
-      "single-threaded); results are identical for any value");
+      {"threads for the superquadric fits (0: the hardware concurrency, at most 8; 1: "
+       "single-threaded); results are identical for any value",
+       0, 256});
   }
   void validate() const;
   /// The thread count to use: threads, or the capped hardware concurrency when 0.
@@ -442,12 +520,12 @@ struct Params {
   AlignmentParams alignment;
   ComputeParams compute;
 
-  /// Calls f(group, name, value&, doc) for every parameter.
+  /// Calls f(group, name, value&, info) for every parameter.
   template <class F>
   void visit(F&& f) {
     auto in = [&f](const char* group) {
-      return [&f, group](const char* name, auto& value, const char* doc) {
-        f(group, name, value, doc);
+      return [&f, group](const char* name, auto& value, const ParamInfo& info) {
+        f(group, name, value, info);
       };
     };
     preprocess.visit(in("preprocess"));

@@ -72,6 +72,9 @@ struct Segment {
   std::vector<int> gaussians;     ///< indices into Result::current_gmm
 };
 
+/// A segment of `cloud` with the given points and id: its centroid and bounding box.
+Segment makeSegment(const Cloud& cloud, Indices indices, int id);
+
 /// Wall time of one named stage, in milliseconds.
 struct StageTiming {
   std::string stage;

@@ -14,8 +14,8 @@
 #include <sstream>
 
 #include "novelty_detection/NoveltyArray.h"
-#include "novelty_detection/alignment.h"
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/ros_params.h"

@@ -4,7 +4,7 @@
 #include <exception>
 #include <string>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/reconfigure.h"

@@ -19,7 +19,7 @@ auto* findEntry(Entries& entries, const std::string& key) {
 }  // namespace
 
 void paramsToConfigMsg(Params params, dynamic_reconfigure::Config& msg) {
-  params.visit([&](const char* group, const char* name, auto& value, const char*) {
+  params.visit([&](const char* group, const char* name, auto& value, const ParamInfo&) {
     using T = std::decay_t<decltype(value)>;
     const std::string key = std::string(group) + "_" + name;
     if constexpr (std::is_same_v<T, bool>) {
@@ -36,7 +36,7 @@ void paramsToConfigMsg(Params params, dynamic_reconfigure::Config& msg) {
 
 Params applyConfigMsg(const dynamic_reconfigure::Config& msg, Params params) {
   std::set<std::string> used;
-  params.visit([&](const char* group, const char* name, auto& value, const char*) {
+  params.visit([&](const char* group, const char* name, auto& value, const ParamInfo&) {
     using T = std::decay_t<decltype(value)>;
     const std::string key = std::string(group) + "_" + name;
     auto take = [&](const auto& entries) {

@@ -92,7 +92,7 @@ void assign(const std::string& key, XmlRpc::XmlRpcValue& v, std::string& out) {
 
 Params loadRosParams(const ros::NodeHandle& nh) {
   Params params;
-  params.visit([&nh](const char* group, const char* name, auto& value, const char*) {
+  params.visit([&nh](const char* group, const char* name, auto& value, const ParamInfo&) {
     const std::string key = std::string(group) + "/" + name;
     XmlRpc::XmlRpcValue v;
     if (!nh.getParam(key, v)) return;  // keep the struct default

@@ -1,6 +1,6 @@
 #include "novelty_detection/ros/superquadric_mesh.h"
 
-#include "novelty_detection/superquadric.h"
+#include "novelty_detection/shape/superquadric.h"
 
 namespace novelty_detection {
 

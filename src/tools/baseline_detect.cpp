@@ -17,9 +17,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "novelty_detection/baseline.h"
-#include "novelty_detection/cloud_io.h"
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/baseline.h"
+#include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/io/cloud_io.h"
+#include "tool_main.h"
 
 namespace nd = novelty_detection;
 
@@ -91,17 +92,6 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Args args;
-  try {
-    args = parseArgs(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "baseline_detect: " << e.what() << "\n" << kUsage << "\n";
-    return 2;
-  }
-  try {
-    return run(args);
-  } catch (const std::exception& e) {
-    std::cerr << "baseline_detect: " << e.what() << "\n";
-    return 1;
-  }
+  return novelty_detection::runTool("baseline_detect", std::string("\n") + kUsage, argc, argv,
+                                    parseArgs, run);
 }

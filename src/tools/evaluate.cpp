@@ -19,10 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "novelty_detection/cloud_io.h"
-#include "novelty_detection/evaluation.h"
-#include "novelty_detection/shape_evaluation.h"
-#include "novelty_detection/viewpoint_evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/eval/shape_evaluation.h"
+#include "novelty_detection/eval/viewpoint_evaluation.h"
+#include "novelty_detection/io/cloud_io.h"
+#include "tool_main.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -269,17 +270,7 @@ int evaluateSuite(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  try {
-    o = parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "evaluate: " << e.what() << " (see --help)\n";
-    return 2;
-  }
-  try {
-    return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o);
-  } catch (const std::exception& e) {
-    std::cerr << "evaluate: " << e.what() << "\n";
-    return 1;
-  }
+  return novelty_detection::runTool(
+      "evaluate", " (see --help)", argc, argv, parse,
+      [](const Options& o) { return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o); });
 }

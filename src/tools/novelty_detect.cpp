@@ -1,4 +1,4 @@
-// novelty_detect: compares a current sweep with a reference map (the contract in DESIGN.md).
+// novelty_detect: compares a current sweep with a reference map (files, exit codes: README.md).
 //
 //   novelty_detect --reference REF.pcd --current CUR.pcd --out DIR [--config FILE.yaml]
 //
@@ -20,10 +20,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "novelty_detection/alignment.h"
-#include "novelty_detection/cloud_io.h"
-#include "novelty_detection/params_io.h"
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/params_io.h"
 #include "novelty_detection/pipeline.h"
+#include "tool_main.h"
 
 namespace nd = novelty_detection;
 using nlohmann::json;
@@ -203,7 +204,7 @@ int run(const Args& args) {
   writeText((dir / "labels.txt").string(), labels);
   writeText((dir / "superquadrics.json").string(),
             superquadricsJson(result.superquadrics).dump(2) + "\n");
-  // Visibility outputs (issue 7): newly visible flags per current point, disappearance
+  // Visibility outputs: newly visible flags per current point, disappearance
   // labels per reference point (same convention as labels.txt) and their superquadrics.
   std::string flags;
   flags.reserve(result.newly_visible.size() * 2);
@@ -254,17 +255,6 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Args args;
-  try {
-    args = parseArgs(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "novelty_detect: " << e.what() << " (" << kUsage << ")\n";
-    return 2;
-  }
-  try {
-    return run(args);
-  } catch (const std::exception& e) {
-    std::cerr << "novelty_detect: " << e.what() << "\n";
-    return 1;
-  }
+  return novelty_detection::runTool("novelty_detect", std::string(" (") + kUsage + ")", argc, argv,
+                                    parseArgs, run);
 }

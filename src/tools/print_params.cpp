@@ -2,7 +2,7 @@
 #include <iostream>
 #include <string>
 
-#include "novelty_detection/params_io.h"
+#include "novelty_detection/io/params_io.h"
 
 int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "--yaml";

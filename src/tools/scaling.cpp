@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
 

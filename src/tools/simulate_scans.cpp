@@ -24,9 +24,10 @@
 #include <string>
 #include <vector>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
 #include "novelty_detection/sim/scene_json.h"
+#include "tool_main.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -339,56 +340,48 @@ void printScene(const std::string& prefix, const nlohmann::json& j, double secon
   std::fflush(stdout);
 }
 
+int run(const Options& opt) {
+  using Clock = std::chrono::steady_clock;
+  const fs::path out(opt.out);
+  if (!opt.suite) {
+    const auto t = Clock::now();
+    const nlohmann::json j = writeScene(out, opt.scene, opt.bag);
+    printScene("", j, std::chrono::duration<double>(Clock::now() - t).count());
+    std::printf(
+        "wrote %s/{ref.pcd,cur.pcd,gt_labels.txt,gt_disappeared_labels.txt,"
+        "gt_newly_visible.txt,scene.json%s}\n",
+        out.c_str(), opt.bag ? ",scans.bag" : "");
+    return 0;
+  }
+  fs::create_directories(out);
+  nlohmann::json scenes = nlohmann::json::array();
+  const auto start = Clock::now();
+  for (int i = 0; i < opt.suite_size; ++i) {
+    sim::SceneConfig c = opt.suite_kind == "viewpoint" ? sim::viewpointSceneConfig(i, opt.seed)
+                                                       : sim::suiteSceneConfig(i, opt.seed);
+    if (opt.lines_set) c.laser.lines = opt.scene.laser.lines;
+    if (opt.noise_set) c.laser.noise_variance_m2 = opt.scene.laser.noise_variance_m2;
+    char name[32];
+    std::snprintf(name, sizeof(name), "scene_%03d", i);
+    const auto t = Clock::now();
+    scenes.push_back(writeScene(out / name, c, opt.bag));
+    char prefix[32];
+    std::snprintf(prefix, sizeof(prefix), "[%d/%d] ", i + 1, opt.suite_size);
+    printScene(prefix, scenes.back(), std::chrono::duration<double>(Clock::now() - t).count());
+  }
+  const nlohmann::json suite = {{"suite_seed", opt.seed},
+                                {"size", opt.suite_size},
+                                {"kind", opt.suite_kind},
+                                {"bag", opt.bag},
+                                {"scenes", scenes}};
+  writeTextAtomic(out / "suite.json", suite.dump(2) + "\n");
+  std::printf("wrote %d scenes and suite.json to %s in %.1f s\n", opt.suite_size, out.c_str(),
+              std::chrono::duration<double>(Clock::now() - start).count());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options opt;
-  try {
-    opt = parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "simulate_scans: " << e.what() << " (see --help)\n";
-    return 2;
-  }
-  try {
-    using Clock = std::chrono::steady_clock;
-    const fs::path out(opt.out);
-    if (!opt.suite) {
-      const auto t = Clock::now();
-      const nlohmann::json j = writeScene(out, opt.scene, opt.bag);
-      printScene("", j, std::chrono::duration<double>(Clock::now() - t).count());
-      std::printf(
-          "wrote %s/{ref.pcd,cur.pcd,gt_labels.txt,gt_disappeared_labels.txt,"
-          "gt_newly_visible.txt,scene.json%s}\n",
-          out.c_str(), opt.bag ? ",scans.bag" : "");
-      return 0;
-    }
-    fs::create_directories(out);
-    nlohmann::json scenes = nlohmann::json::array();
-    const auto start = Clock::now();
-    for (int i = 0; i < opt.suite_size; ++i) {
-      sim::SceneConfig c = opt.suite_kind == "viewpoint" ? sim::viewpointSceneConfig(i, opt.seed)
-                                                         : sim::suiteSceneConfig(i, opt.seed);
-      if (opt.lines_set) c.laser.lines = opt.scene.laser.lines;
-      if (opt.noise_set) c.laser.noise_variance_m2 = opt.scene.laser.noise_variance_m2;
-      char name[32];
-      std::snprintf(name, sizeof(name), "scene_%03d", i);
-      const auto t = Clock::now();
-      scenes.push_back(writeScene(out / name, c, opt.bag));
-      char prefix[32];
-      std::snprintf(prefix, sizeof(prefix), "[%d/%d] ", i + 1, opt.suite_size);
-      printScene(prefix, scenes.back(), std::chrono::duration<double>(Clock::now() - t).count());
-    }
-    const nlohmann::json suite = {{"suite_seed", opt.seed},
-                                  {"size", opt.suite_size},
-                                  {"kind", opt.suite_kind},
-                                  {"bag", opt.bag},
-                                  {"scenes", scenes}};
-    writeTextAtomic(out / "suite.json", suite.dump(2) + "\n");
-    std::printf("wrote %d scenes and suite.json to %s in %.1f s\n", opt.suite_size, out.c_str(),
-                std::chrono::duration<double>(Clock::now() - start).count());
-    return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "simulate_scans: " << e.what() << "\n";
-    return 1;
-  }
+  return novelty_detection::runTool("simulate_scans", " (see --help)", argc, argv, parse, run);
 }

@@ -34,10 +34,10 @@
 #include <string>
 #include <vector>
 
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/superquadric.h"
 
 using namespace novelty_detection;
 namespace fs = std::filesystem;

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;

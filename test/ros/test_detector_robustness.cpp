@@ -15,7 +15,7 @@
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/SaveReference.h"
 #include "novelty_detection/SetReference.h"
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "test_helpers.h"
 
 using test_helpers::waitFor;

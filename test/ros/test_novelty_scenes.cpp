@@ -16,7 +16,7 @@
 
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/SetReference.h"
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/sim/scene.h"
 #include "test_helpers.h"

@@ -2,6 +2,9 @@
 // validated, refused updates change nothing.
 #include <gtest/gtest.h>
 
+#include <string>
+#include <type_traits>
+
 #include "novelty_detection/DetectorConfig.h"
 #include "novelty_detection/ros/reconfigure.h"
 
@@ -70,4 +73,31 @@ TEST(Reconfigure, InvalidValuesAndUnknownNamesAreRefused) {
   extra.value = 1;
   unknown.ints.push_back(extra);
   EXPECT_THROW(novelty_detection::applyConfigMsg(unknown, Params()), std::invalid_argument);
+}
+
+TEST(Reconfigure, CfgRangesAndDescriptionsAreTheCoreOnes) {
+  // Detector.cfg reads ranges and descriptions from default.yaml too: every numeric entry's
+  // min and max are the ones params.h states for that parameter.
+  dynamic_reconfigure::Config lo, hi;
+  DetectorConfig::__getMin__().__toMessage__(lo);
+  DetectorConfig::__getMax__().__toMessage__(hi);
+  int checked = 0;
+  Params().visit([&](const char* group, const char* name, auto& value,
+                     const novelty_detection::ParamInfo& info) {
+    using T = std::decay_t<decltype(value)>;
+    const std::string key = std::string(group) + "_" + name;
+    auto check = [&](const auto& mins, const auto& maxs) {
+      for (std::size_t i = 0; i < mins.size(); ++i) {
+        if (mins[i].name != key) continue;
+        EXPECT_DOUBLE_EQ(static_cast<double>(mins[i].value), info.min) << key;
+        EXPECT_DOUBLE_EQ(static_cast<double>(maxs[i].value), info.max) << key;
+        ++checked;
+      }
+    };
+    if constexpr (std::is_same_v<T, int>) check(lo.ints, hi.ints);
+    if constexpr (std::is_same_v<T, double>) check(lo.doubles, hi.doubles);
+  });
+  EXPECT_EQ(checked, 6);  // the numeric tunables of Detector.cfg
+  for (const auto& d : DetectorConfig::__getParamDescriptions__())
+    EXPECT_FALSE(d->description.empty());
 }

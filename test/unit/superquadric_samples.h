@@ -5,7 +5,7 @@
 #include <Eigen/Geometry>
 #include <random>
 
-#include "novelty_detection/superquadric.h"
+#include "novelty_detection/shape/superquadric.h"
 
 namespace novelty_detection {
 namespace samples {

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "novelty_detection/alignment.h"
+#include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
 
@@ -72,7 +72,7 @@ struct ErrorCase {
 
 class LocalisationError : public ::testing::TestWithParam<ErrorCase> {};
 
-// Issue 7: a 2 cm / 0.5 deg localisation error is corrected to within 5 mm / 0.1 deg.
+// A 2 cm / 0.5 deg localisation error is corrected to within 5 mm / 0.1 deg.
 TEST_P(LocalisationError, CorrectedWithin5mmAndATenthOfADegree) {
   const ErrorCase& c = GetParam();
   const sim::ScenePair s = scene(c.seed, c.layout);

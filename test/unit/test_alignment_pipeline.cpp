@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "novelty_detection/alignment.h"
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
 

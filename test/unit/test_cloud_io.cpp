@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <fstream>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 
 using namespace novelty_detection;
 

@@ -6,7 +6,7 @@
 #include <limits>
 #include <random>
 
-#include "novelty_detection/emd.h"
+#include "novelty_detection/mixture/emd.h"
 
 using namespace novelty_detection;
 

@@ -3,7 +3,7 @@
 
 #include <fstream>
 
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
 
 using namespace novelty_detection;
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "novelty_detection/gmm.h"
+#include "novelty_detection/mixture/gmm.h"
 
 using namespace novelty_detection;
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "novelty_detection/preprocess.h"
+#include "novelty_detection/preprocess/preprocess.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;

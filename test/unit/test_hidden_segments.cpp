@@ -8,8 +8,8 @@
 #include <cstdio>
 #include <utility>
 
-#include "novelty_detection/hidden_segments.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;
@@ -47,11 +47,11 @@ Counts count(const Result& r, const std::vector<int>& truth, int id) {
 }
 
 /// Detection of `s` with the default rules (superquadrics off) and with `rule` switched off.
-std::pair<Result, Result> withAndWithout(const sim::ScenePair& s, bool SegmentationParams::*rule) {
+std::pair<Result, Result> withAndWithout(const sim::ScenePair& s, bool HiddenParams::*rule) {
   Params with;
   with.superquadric.enabled = false;
   Params without = with;
-  without.segmentation.*rule = false;
+  without.segmentation.hidden.*rule = false;
   Pipeline a(with), b(without);
   a.setReference(s.reference);
   b.setReference(s.reference);
@@ -103,7 +103,7 @@ TEST(HiddenSegments, DoorLeafHiddenByOldLeafIsNovel) {
     const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(index, 1));
     const int door = doorId(s);
     ASSERT_GT(door, 0);
-    const auto [ra, rb] = withAndWithout(s, &SegmentationParams::hidden_segments);
+    const auto [ra, rb] = withAndWithout(s, &HiddenParams::segments);
     const Counts on = count(ra, s.current_labels, door);
     const Counts off = count(rb, s.current_labels, door);
     std::printf("scene %d: door %ld points, found %ld with the rule, %ld without\n", index,
@@ -158,7 +158,7 @@ TEST(HiddenSegments, MovedObjectReachingIntoTheShadowIsOneSegment) {
   // looked. With the continuation rule they join the box's segment; without it they are
   // newly visible. No revealed surface is labelled either way.
   const sim::ScenePair s = sim::generateScenePair(sim::viewpointSceneConfig(15, 1));
-  const auto [ra, rb] = withAndWithout(s, &SegmentationParams::hidden_continuations);
+  const auto [ra, rb] = withAndWithout(s, &HiddenParams::continuations);
   const Counts on = count(ra, s.current_labels, 0);
   const Counts off = count(rb, s.current_labels, 0);
   long revealed_novel = 0;

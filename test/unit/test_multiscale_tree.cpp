@@ -8,7 +8,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "novelty_detection/multiscale_tree.h"
+#include "novelty_detection/preprocess/multiscale_tree.h"
 #include "synthetic_scene.h"
 
 namespace nd = novelty_detection;

@@ -1,4 +1,4 @@
-// The novelty_detect command line tool: the DESIGN.md contract files, and clean failures.
+// The novelty_detect command line tool: its output files, and clean failures.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "novelty_detection/alignment.h"
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
 
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <random>
 
-#include "novelty_detection/novelty_selection.h"
+#include "novelty_detection/mixture/novelty_selection.h"
 
 using namespace novelty_detection;
 

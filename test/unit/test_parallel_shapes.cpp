@@ -8,13 +8,13 @@
 #include <random>
 #include <stdexcept>
 
-#include "../../src/core/detail/parallel.h"
+#include "../../src/common/parallel.h"
 #include "novelty_detection/pipeline.h"
-#include "novelty_detection/shape_retrieval.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/split_merge.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_cost.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/split_merge.h"
-#include "novelty_detection/superquadric.h"
-#include "novelty_detection/superquadric_cost.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;

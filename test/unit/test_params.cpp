@@ -1,10 +1,13 @@
 // Parameters: defaults agree with config/default.yaml, bad values are refused clearly.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <type_traits>
 
-#include "novelty_detection/params_io.h"
+#include "novelty_detection/io/params_io.h"
 
 using novelty_detection::Params;
 
@@ -27,10 +30,50 @@ TEST(Params, DefaultYamlMatchesStructDefaults) {
       << "config/default.yaml is out of date: regenerate it with print_params --yaml";
 }
 
-TEST(Params, ReadmeTableMatchesStructDefaults) {
-  const std::string readme = readFile(std::string(NOVELTY_SOURCE_DIR) + "/README.md");
-  EXPECT_NE(readme.find(novelty_detection::paramsToMarkdown(Params())), std::string::npos)
-      << "README.md's parameter table is out of date: run scripts/update_docs.sh";
+TEST(Params, ParameterDocMatchesStruct) {
+  const std::string doc = readFile(std::string(NOVELTY_SOURCE_DIR) + "/docs/parameters.md");
+  EXPECT_NE(doc.find(novelty_detection::paramsToMarkdown(Params())), std::string::npos)
+      << "docs/parameters.md is out of date: run scripts/update_docs.sh";
+}
+
+// Every numeric field's stated range is enforced: just outside either bound, validate()
+// refuses the value and names the field.
+TEST(Params, EveryStatedRangeIsEnforced) {
+  int checked = 0;
+  Params(Params()).visit([&](const char* group, const char* name, auto& value,
+                             const novelty_detection::ParamInfo& info) {
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+      const std::string full = std::string(group) + "/" + name;
+      ASSERT_TRUE(std::isfinite(info.min) && std::isfinite(info.max)) << full << " has no range";
+      for (const double bound : {info.min, info.max}) {
+        const bool is_min = bound == info.min;
+        if (std::is_integral_v<T> && !is_min && bound >= double(std::numeric_limits<T>::max()))
+          continue;  // the type itself is the bound
+        const T step = std::is_integral_v<T> ? T(1) : T(std::max(1e-9, std::abs(bound) * 1e-6));
+        Params p;
+        bool found = false;
+        p.visit([&](const char* g, const char* n, auto& v, const novelty_detection::ParamInfo&) {
+          if constexpr (std::is_same_v<std::decay_t<decltype(v)>, T>) {
+            if (std::string(g) + "/" + n == full) {
+              v = static_cast<T>(bound) + (is_min ? -step : step);
+              found = true;
+            }
+          }
+        });
+        ASSERT_TRUE(found) << full;
+        try {
+          p.validate();
+          ADD_FAILURE() << full << " = " << bound << (is_min ? " - " : " + ") << step
+                        << " was accepted";
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find(full), std::string::npos) << e.what();
+        }
+      }
+      ++checked;
+    }
+  });
+  EXPECT_EQ(checked, 81);  // every int and double field of params.h
 }
 
 TEST(Params, DoublesAreWrittenAsYaml11Floats) {

@@ -10,7 +10,7 @@
 #include <random>
 #include <sstream>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 
 using namespace novelty_detection;
 

@@ -3,7 +3,7 @@
 
 #include <limits>
 
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
 

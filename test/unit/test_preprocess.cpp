@@ -11,8 +11,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "../../src/core/detail/knn.h"
-#include "novelty_detection/preprocess.h"
+#include "../../src/common/knn.h"
+#include "novelty_detection/preprocess/preprocess.h"
 #include "novelty_detection/sim/scene.h"
 #include "synthetic_scene.h"
 

@@ -3,8 +3,8 @@
 
 #include <fstream>
 
-#include "novelty_detection/shape_evaluation.h"
-#include "novelty_detection/superquadric.h"
+#include "novelty_detection/eval/shape_evaluation.h"
+#include "novelty_detection/shape/superquadric.h"
 
 using namespace novelty_detection;
 

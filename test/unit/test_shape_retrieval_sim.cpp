@@ -5,10 +5,10 @@
 
 #include <cmath>
 
-#include "novelty_detection/shape_retrieval.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/superquadric.h"
-#include "novelty_detection/superquadric_fit.h"
 
 using namespace novelty_detection;
 

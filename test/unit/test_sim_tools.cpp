@@ -6,8 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "novelty_detection/cloud_io.h"
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/io/cloud_io.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;

@@ -1,4 +1,4 @@
-// Simulator scenes for viewpoint robustness (issue 7): localisation error, removed objects,
+// Simulator scenes for viewpoint robustness: localisation error, removed objects,
 // newly-visible ground truth, the viewpoint suite; the voxel-difference baseline; scoring
 // per scene group. Known answers from seeded scenes and hand-made worlds.
 #include <gtest/gtest.h>
@@ -11,11 +11,11 @@
 #include <memory>
 #include <sstream>
 
-#include "novelty_detection/baseline.h"
-#include "novelty_detection/cloud_io.h"
-#include "novelty_detection/evaluation.h"
+#include "novelty_detection/eval/baseline.h"
+#include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/eval/viewpoint_evaluation.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/viewpoint_evaluation.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;

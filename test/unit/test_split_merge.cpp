@@ -5,9 +5,9 @@
 
 #include <random>
 
-#include "novelty_detection/shape_retrieval.h"
-#include "novelty_detection/split_merge.h"
-#include "novelty_detection/superquadric.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/split_merge.h"
+#include "novelty_detection/shape/superquadric.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;

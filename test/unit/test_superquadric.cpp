@@ -7,7 +7,7 @@
 #include <random>
 #include <utility>
 
-#include "novelty_detection/superquadric.h"
+#include "novelty_detection/shape/superquadric.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;

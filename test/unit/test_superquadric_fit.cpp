@@ -6,10 +6,10 @@
 #include <memory>
 #include <random>
 
-#include "novelty_detection/shape_retrieval.h"
-#include "novelty_detection/superquadric.h"
-#include "novelty_detection/superquadric_cost.h"
-#include "novelty_detection/superquadric_fit.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_cost.h"
+#include "novelty_detection/shape/superquadric_fit.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;

@@ -1,4 +1,4 @@
-// Visibility reasoning (issue 7) with known answers: the range image's free / occupied /
+// Visibility reasoning with known answers: the range image's free / occupied /
 // occluded / unknown classes, a shifted viewpoint of an unchanged scene, a removed box
 // (disappeared, not novel) and surfaces newly visible behind it.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
-#include "novelty_detection/visibility.h"
+#include "novelty_detection/visibility/visibility.h"
 
 using namespace novelty_detection;
 
@@ -140,7 +140,7 @@ TEST(RangeImage, ASweepSeesItsOwnPointsAsOccupied) {
   EXPECT_GE(occupied, 0.85 * s.reference.size()) << occupied << " of " << s.reference.size();
 }
 
-// Issue 7, test 1: a scan of an unchanged scene from a shifted viewpoint gives no novelty.
+// A scan of an unchanged scene from a shifted viewpoint gives no novelty.
 TEST(Visibility, ShiftedViewpointOfUnchangedSceneHasNoNovelty) {
   for (const auto& [seed, offset] :
        {std::make_pair(3u, Eigen::Vector3d(0.25, 0.1, 8.0 * M_PI / 180)),
@@ -171,7 +171,7 @@ TEST(Visibility, ShiftedViewpointOfUnchangedSceneHasNoNovelty) {
   }
 }
 
-// Issue 7, test 2: a removed box is reported as disappeared, with its reference points, and
+// A removed box is reported as disappeared, with its reference points, and
 // not as novel.
 TEST(Visibility, RemovedBoxIsDisappearedNotNovel) {
   // Boxes of 870 and 2350 points. (On small far boxes the lowest scan line is lost: the
@@ -216,7 +216,7 @@ TEST(Visibility, NoCurrentOriginSkipsDisappearances) {
   EXPECT_TRUE(r.disappeared_segments.empty());
 }
 
-// Issue 7, test 4: surfaces newly visible (the wall and floor the removed box hid from the
+// Surfaces newly visible (the wall and floor the removed box hid from the
 // reference sensor) are not labelled novel and are flagged newly visible. Ground truth by
 // ray casting in the reference's world: a current point is hidden from the reference when
 // the ray from the reference origin towards it hits the box first.

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "novelty_detection/cloud_io.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {

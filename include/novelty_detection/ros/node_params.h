@@ -1,5 +1,6 @@
 // Parameters of the ROS shell only (frames, files, tiling); the pipeline's own parameters
 // are novelty_detection::Params, read by loadRosParams() under the same names as the YAML.
+// Each field's description is its visit() text (docs/ros.md lists them).
 #pragma once
 
 #include <ros/node_handle.h>
@@ -9,14 +10,14 @@
 namespace novelty_detection {
 
 struct NodeParams {
-  std::string fixed_frame = "map";  ///< frame of the reference map and of all outputs
-  std::string reference_file;       ///< PCD/PLY map loaded at start (fixed frame); "" = none
-  double tile_size_m = 10.0;        ///< reference tile edge; <= 0: one model of the whole map
-  double crop_margin_m = 1.0;       ///< map kept around the sweep's extent [m]
-  std::string sensor_frame;         ///< crop to sensor_range_m around it ("": sweep frame)
-  double sensor_range_m = 30.0;     ///< sensor range for that crop [m]
-  int tile_cache_size = 8;          ///< reference models kept (LRU)
-  int input_queue_size = 5;         ///< sweeps waiting for their transform
+  std::string fixed_frame = "map";
+  std::string reference_file;
+  double tile_size_m = 10.0;
+  double crop_margin_m = 1.0;
+  std::string sensor_frame;
+  double sensor_range_m = 30.0;
+  int tile_cache_size = 8;
+  int input_queue_size = 5;
 
   template <class F>
   void visit(F&& f) {

@@ -145,7 +145,7 @@ SceneConfig suiteSceneConfig(int index, std::uint64_t suite_seed);
 /// "same_pose".
 std::string sceneGroup(const SceneConfig& config);
 
-/// Scenes for viewpoint robustness (issue 7): index % 3 cycles the groups same_pose,
+/// Scenes for viewpoint robustness: index % 3 cycles the groups same_pose,
 /// pose_offset (5-30 cm, up to +-10 deg, exact localisation) and localisation_error (same
 /// pose, error of 1-2.5 cm in x-y, up to 1 cm in z, 0.2-0.8 deg yaw, up to 0.4 deg
 /// roll and pitch). Every other triple of scenes has a removed object (half of the scenes,

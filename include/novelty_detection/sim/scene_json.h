@@ -16,7 +16,7 @@ nlohmann::json superquadricToJson(const Superquadric& sq);
 nlohmann::json poseToJson(const Eigen::Isometry3d& T);
 
 /// The scene: config, sensor poses, point counts and the changed objects with their parts'
-/// true superquadrics (see README, "Simulator and evaluation").
+/// true superquadrics (docs/evaluation.md, "The simulator").
 nlohmann::json sceneToJson(const ScenePair& scene);
 
 }  // namespace sim

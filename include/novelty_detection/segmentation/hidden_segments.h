@@ -1,0 +1,109 @@
+// Segment-level rule for novelty candidates the reference could not see (ROS-free).
+//
+// The point rule of visibility.h (novelCandidate) calls a candidate the reference never
+// observed (occluded, out of view) newly visible, not novel: a wall revealed behind a moved
+// box. A door leaf swung into space that the old leaf hid is, point by point, the same case.
+// Whole segments tell them apart. A segment of such candidates (linked and merged like the
+// novelty segments) is novel when all of these hold:
+// 1. the reference saw something in front of most of its points (occluded, not out of view
+//    or about there: nothing is known of what it never looked at);
+// 2. it is a surface patch: its second principal spread exceeds tau, so it has a plane
+//    (normal = least principal axis), and its thickness across that plane (least principal
+//    spread) is at most tau (noise-sized);
+// 3. it is not a continuation of mapped structure: of the reference points (no ground, not
+//    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
+//    that radius), at least one exists and fewer than
+//    max_coplanar lie within plane_factor * tau of its plane (a revealed wall continues the
+//    mapped wall around it; a door leaf at a new angle meets the map only along its hinge);
+// 4. it stands in space: of the current sweep's rays (points) in the cells of its own
+//    range image within outline_factor * tau (at the segment's median range) around the
+//    segment's cells, those that end past its plane by more than the visibility margin are
+//    at least min_free_edge of those that end past or on it (a door leaf has free edges
+//    beyond which the sensor sees farther; a revealed background surface has none). Rays,
+//    not cells: a cell on the leaf's edge holds both leaf and background returns.
+// Every length scales with tau (the data's noise and sampling distance) and the sweep's
+// angular spacing. Without a current sensor origin, test 4 cannot be made: nothing revives.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/types.h"
+#include "novelty_detection/visibility/visibility.h"
+
+namespace novelty_detection {
+
+/// The measurements behind the rule, for one segment.
+struct HiddenSegmentEvidence {
+  int points = 0;
+  int occluded = 0;          ///< points the reference saw something in front of
+  double width_m = 0.0;      ///< second principal standard deviation
+  double thickness_m = 0.0;  ///< least principal standard deviation (across the plane)
+  int ring = 0;              ///< reference structure points around it (not disappeared)
+  int ring_coplanar = 0;     ///< of those, on its plane
+  int past = 0;              ///< outline rays of the current sweep that reach past its plane
+  int on = 0;                ///< outline rays that end on its plane
+};
+
+/// A current point's cell in the current sweep's range image, and its range.
+struct RayCell {
+  int col = -1, row = -1;
+  float range = 0.f;
+};
+
+/// Cells of every point of `cloud` in `image` (col = -1 for a point outside it).
+std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image);
+
+/// What the rule needs about the scene.
+struct HiddenSegmentContext {
+  const Cloud* current = nullptr;
+  const NearestNeighbourIndex* structure = nullptr;  ///< reference points, no ground
+  const std::vector<std::uint8_t>* gone = nullptr;   ///< per structure point: disappeared
+  const RangeImage* current_image = nullptr;         ///< the current sweep from its origin
+  /// Per point of *current: its cell in current_image and range (col < 0: none). Filled
+  /// by novelHiddenSegments; without it test 4 bins the points itself.
+  const std::vector<RayCell>* rays = nullptr;
+  double tau = 0.0;       ///< novelty distance [m]
+  double margin_m = 0.0;  ///< visibility margin [m]
+};
+
+/// Measures `segment` (indices into *ctx.current; vis[k] the reference visibility of
+/// segment[k]).
+HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                                           const std::vector<Visibility>& vis,
+                                           const SegmentationParams& params);
+
+/// The rule of the header comment on measured evidence.
+bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
+                          const SegmentationParams& params);
+
+/// The segments of `hidden` (ascending indices into `current` of the candidates the point
+/// rule called newly visible; hidden_owner / hidden_vis per entry: most probable novel
+/// Gaussian in [0, num_gaussians), reference visibility) that the rule calls novel. They are
+/// linked and merged like the novel points (segmentNovelPoints). `structure` indexes the
+/// reference's points without ground, `gone` flags its disappeared ones (same order). Needs
+/// the current sensor origin (current.sensor_origin_); without it returns nothing.
+/// `current_image`: the current sweep's range image from that origin with
+/// rangeImageConfig(params.visibility), when the caller has built it (built here otherwise).
+std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
+                                         const std::vector<int>& hidden_owner,
+                                         const std::vector<Visibility>& hidden_vis,
+                                         int num_gaussians, const NearestNeighbourIndex& structure,
+                                         const std::vector<std::uint8_t>& gone, double tau,
+                                         const Params& params,
+                                         const RangeImage* current_image = nullptr);
+
+/// Continuations of novel segments into hidden space: a moved object that now reaches into
+/// the reference's shadow is one object, not part novel and part newly visible. The
+/// candidates of `hidden` (ascending indices into `current`, as above) that are in no
+/// segment and are linked to a segment's points (closer than `link_radius_m`, directly or
+/// through other such candidates) join that segment (segments in order, each kept
+/// ascending).
+void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
+                    double link_radius_m);
+
+}  // namespace novelty_detection

@@ -1,0 +1,93 @@
+// Ceres cost functions of the superquadric fit (paper eq. 3), one residual per point.
+// Included by the fitter and its tests only (it pulls in Ceres). ROS-free.
+//
+// Parameterisation shared by both: the point is given in the frame of the start model,
+// q = R0^T (p - c0); the parameters move that frame: position c0 + R0 t, rotation
+// R0 Exp(w), so the point in the superquadric's canonical frame is p_sq = Exp(w)^T (q - t).
+// Parameter blocks: sizes a[3], exponents e[2] = (e1, e2), rotation vector w[3],
+// translation t[3]. Residual: sqrt(a1 a2 a3) (F(p_sq)^e1 - 1) (eq. 3), F from eq. 2.
+#pragma once
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "novelty_detection/shape/superquadric.h"
+
+namespace novelty_detection {
+
+/// Automatic differentiation (reference implementation; guarded powers are in
+/// fitResidualCanonical(), which works on Jets).
+struct SuperquadricResidual {
+  explicit SuperquadricResidual(const Eigen::Vector3d& q) : q_(q) {}
+
+  template <class T>
+  bool operator()(const T* const a, const T* const e, const T* const w, const T* const t,
+                  T* residual) const {
+    const T d[3] = {T(q_.x()) - t[0], T(q_.y()) - t[1], T(q_.z()) - t[2]};
+    const T minus_w[3] = {-w[0], -w[1], -w[2]};
+    T p[3];
+    ceres::AngleAxisRotatePoint(minus_w, d, p);  // Exp(w)^T (q - t)
+    residual[0] = fitResidualCanonical(p[0], p[1], p[2], a[0], a[1], a[2], e[0], e[1]);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& q) {
+    return new ceres::AutoDiffCostFunction<SuperquadricResidual, 1, 3, 2, 3, 3>(
+        new SuperquadricResidual(q));
+  }
+
+  Eigen::Vector3d q_;
+};
+
+/// The same residual with analytic derivatives (about 5x faster than the Jets). With
+/// L = log F, E = F^e1 = exp(e1 L), S = sqrt(a1 a2 a3), r = S (E - 1):
+///   dr/da_k = S (E - 1) / (2 a_k) + S E e1 dL/da_k,   dr/de1 = S E (L - wA A - wB B),
+///   dr/de2 = S E wA (Lxy - wx lx - wy ly),            dr/dp = S E e1 grad L,
+///   dp/dt = -Exp(w)^T,   dp/dw = [p]x J_r(w)  (J_r: right Jacobian of SO(3)),
+/// where lx, ly, lz are the logs of the three terms of eq. 2, Lxy = log(e^lx + e^ly),
+/// A = (e2/e1) Lxy, B = lz, L = log(e^A + e^B) and the w's are the softmax weights.
+class SuperquadricAnalyticResidual : public ceres::SizedCostFunction<1, 3, 2, 3, 3> {
+ public:
+  explicit SuperquadricAnalyticResidual(const Eigen::Vector3d& q) : q_(q) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& q) {
+    return new SuperquadricAnalyticResidual(q);
+  }
+
+ private:
+  Eigen::Vector3d q_;
+};
+
+/// All points' residuals in one cost function (the same values and derivatives as one
+/// SuperquadricAnalyticResidual per point, up to rounding): the rotation terms are computed
+/// once per evaluation instead of once per point, the logs and exps run vectorised over
+/// the points, and Ceres handles one block instead of n. Only valid without a robust loss
+/// (a loss would act on the block's summed squares).
+class SuperquadricBatchResidual : public ceres::CostFunction {
+ public:
+  /// `q`: the points in the start model's frame.
+  explicit SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  /// Points per chunk of an evaluation (a multiple of the SIMD packet size; the kernels'
+  /// chunk, detail/superquadric_kernel.h).
+  static constexpr Eigen::Index kChunk = 64;
+
+ private:
+  Eigen::Matrix3Xd q_;
+  // The terms at the last evaluated parameters (one residual block per problem, so Ceres
+  // never evaluates it concurrently).
+  mutable Eigen::MatrixXd terms_;  ///< points x the kernels' terms
+  mutable double last_[11] = {};
+  mutable bool cached_ = false;
+};
+
+}  // namespace novelty_detection

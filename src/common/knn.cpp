@@ -1,0 +1,153 @@
+#include "common/knn.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace novelty_detection {
+namespace detail {
+namespace {
+
+struct Item {
+  Eigen::Vector3f p;
+  int id;
+};
+
+inline float boxDistance2(const float* q, const float* lo, const float* hi) {
+  float d2 = 0.f;
+  for (int a = 0; a < 3; ++a) {
+    const float t = std::max(std::max(lo[a] - q[a], q[a] - hi[a]), 0.f);
+    d2 += t * t;
+  }
+  return d2;
+}
+
+}  // namespace
+
+KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points) {
+  const int n = static_cast<int>(points.size());
+  std::vector<Item> items(n);
+  for (int i = 0; i < n; ++i) items[i] = {points[i], i};
+  leaf_of_.assign(n, -1);
+  nodes_.reserve(static_cast<std::size_t>(n / (kLeafSize / 2) + 2));
+  if (n > 0) {
+    // Median splits along the widest box side; items are permuted in place.
+    struct Task {
+      int begin, end, parent;
+      bool right;
+    };
+    std::vector<Task> stack{{0, n, -1, false}};
+    while (!stack.empty()) {
+      const Task task = stack.back();
+      stack.pop_back();
+      Node node;
+      node.begin = task.begin;
+      node.end = task.end;
+      node.parent = task.parent;
+      Eigen::Vector3f lo = items[task.begin].p, hi = lo;
+      for (int i = task.begin + 1; i < task.end; ++i) {
+        lo = lo.cwiseMin(items[i].p);
+        hi = hi.cwiseMax(items[i].p);
+      }
+      for (int a = 0; a < 3; ++a) {
+        node.lo[a] = lo[a];
+        node.hi[a] = hi[a];
+      }
+      const int id = static_cast<int>(nodes_.size());
+      nodes_.push_back(node);
+      if (task.parent >= 0) {
+        (task.right ? nodes_[task.parent].right : nodes_[task.parent].left) = id;
+      }
+      if (task.end - task.begin <= kLeafSize) {
+        for (int i = task.begin; i < task.end; ++i) leaf_of_[i] = id;
+        continue;
+      }
+      int dim = 0;
+      (hi - lo).maxCoeff(&dim);
+      const int mid = task.begin + (task.end - task.begin) / 2;
+      std::nth_element(items.begin() + task.begin, items.begin() + mid, items.begin() + task.end,
+                       [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
+      stack.push_back({mid, task.end, id, true});
+      stack.push_back({task.begin, mid, id, false});
+    }
+  }
+  x_.resize(n);
+  y_.resize(n);
+  z_.resize(n);
+  id_.resize(n);
+  for (int i = 0; i < n; ++i) {
+    x_[i] = items[i].p.x();
+    y_[i] = items[i].p.y();
+    z_[i] = items[i].p.z();
+    id_[i] = items[i].id;
+  }
+}
+
+void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, int* count) const {
+  const Node& node = nodes_[node_id];
+  if (node.left < 0) {
+    for (int i = node.begin; i < node.end; ++i) {
+      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
+      const float d = dx * dx + dy * dy + dz * dz;
+      if ((*count == k && d >= d2[k - 1]) || i == self) continue;
+      int j = *count < k ? (*count)++ : k - 1;  // insertion into the sorted list
+      while (j > 0 && d2[j - 1] > d) {
+        d2[j] = d2[j - 1];
+        --j;
+      }
+      d2[j] = d;
+    }
+    return;
+  }
+  // Children nearer first; a child is entered only while it can still hold a closer point.
+  const Node& l = nodes_[node.left];
+  const Node& r = nodes_[node.right];
+  const float dl = boxDistance2(q, l.lo, l.hi);
+  const float dr = boxDistance2(q, r.lo, r.hi);
+  const bool left_first = dl <= dr;
+  const float d_first = left_first ? dl : dr, d_second = left_first ? dr : dl;
+  if (*count < k || d_first < d2[k - 1]) {
+    search(left_first ? node.left : node.right, q, self, k, d2, count);
+  }
+  if (*count < k || d_second < d2[k - 1]) {
+    search(left_first ? node.right : node.left, q, self, k, d2, count);
+  }
+}
+
+std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
+  const int n = static_cast<int>(x_.size());
+  std::vector<double> out(n, 0.0);
+  k = std::min(k, n - 1);
+  if (k <= 0) return out;
+  std::vector<float> d2(k);
+  for (int t = 0; t < n; ++t) {  // tree order: neighbouring queries touch the same memory
+    // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
+    // stopping once the ball through the k-th neighbour lies inside the current subtree.
+    const float q[3] = {x_[t], y_[t], z_[t]};
+    int count = 0;
+    int node = leaf_of_[t];
+    search(node, q, t, k, d2.data(), &count);
+    while (nodes_[node].parent >= 0) {
+      const Node& parent = nodes_[nodes_[node].parent];
+      const Node& sibling = nodes_[parent.left == node ? parent.right : parent.left];
+      if (count < k || boxDistance2(q, sibling.lo, sibling.hi) < d2[k - 1]) {
+        search(parent.left == node ? parent.right : parent.left, q, t, k, d2.data(), &count);
+      }
+      node = nodes_[node].parent;
+      if (count == k) {
+        float inside = q[0] - parent.lo[0];
+        for (int a = 0; a < 3; ++a) {
+          inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
+        }
+        if (inside > 0.f && inside * inside >= d2[k - 1]) break;
+      }
+    }
+    double sum = 0.0;
+    for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
+    out[id_[t]] = sum / count;
+  }
+  return out;
+}
+
+}  // namespace detail
+}  // namespace novelty_detection

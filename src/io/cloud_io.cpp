@@ -1,0 +1,198 @@
+#include "novelty_detection/io/cloud_io.h"
+
+#include "io/pcd_reader.h"
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
+#include <sys/stat.h>
+#include <unistd.h>
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace novelty_detection {
+namespace {
+
+std::string lowerExtension(const std::string& path) {
+  const auto dot = path.find_last_of('.');
+  if (dot == std::string::npos) return "";
+  std::string ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw std::runtime_error("cannot read '" + path + "': " + what);
+}
+
+bool hasFloatField(const pcl::PCLPointCloud2& msg, const std::string& name) {
+  for (const auto& f : msg.fields) {
+    if (f.name == name) return f.datatype == pcl::PCLPointField::FLOAT32 && f.count >= 1;
+  }
+  return false;
+}
+
+// The PLY counterpart: PCL allocates element storage from the header's counts before
+// reading, so counts must be sane numbers that the file can actually hold.
+void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open");
+  std::string line;
+  std::size_t header_bytes = 0;
+  int lines = 0;
+  bool magic = false, format = false, vertex = false, end = false;
+  std::string kind;
+  std::uintmax_t min_body_bytes = 0;
+  std::uintmax_t current_count = 0;
+  bool current_is_list = false;
+  while (std::getline(in, line)) {
+    header_bytes += line.size() + 1;
+    if (++lines > 256 || header_bytes > 65536) fail(path, "malformed ply header (too long)");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    for (char c : line) {
+      if (c != '\t' && (c < 32 || c > 126)) fail(path, "malformed ply header (control byte)");
+    }
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    if (lines == 1) {
+      if (key != "ply") fail(path, "not a ply file (no 'ply' magic)");
+      magic = true;
+      continue;
+    }
+    if (key == "format") {
+      ls >> kind;
+      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") {
+        fail(path, "malformed ply header (unknown format)");
+      }
+      format = true;
+    } else if (key == "element") {
+      std::string name, count;
+      ls >> name >> count;
+      std::size_t used = 0;
+      long long n = -1;
+      try {
+        n = std::stoll(count, &used);
+      } catch (const std::exception&) {
+      }
+      if (n < 0 || used != count.size() || static_cast<std::uintmax_t>(n) > file_size) {
+        fail(path, "malformed ply header (element count '" + count.substr(0, 32) + "')");
+      }
+      if (name == "vertex") vertex = true;
+      current_count = static_cast<std::uintmax_t>(n);
+      current_is_list = false;
+    } else if (key == "property") {
+      std::string type;
+      ls >> type;
+      if (type == "list") current_is_list = true;
+      // Every property of every element takes at least one byte (binary) or char (ascii).
+      if (!current_is_list) min_body_bytes += current_count;
+    } else if (key == "end_header") {
+      end = true;
+      break;
+    }
+  }
+  if (!magic || !format || !end) fail(path, "malformed ply header");
+  if (!vertex) fail(path, "ply file has no vertex element");
+  if (header_bytes + min_body_bytes > file_size) {
+    fail(path, "truncated ply file (body shorter than its header declares)");
+  }
+}
+
+}  // namespace
+
+CloudFile loadCloudFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) fail(path, "no such file");
+  if (!S_ISREG(st.st_mode)) fail(path, "not a regular file");
+  if (::access(path.c_str(), R_OK) != 0) fail(path, "permission denied");
+  if (st.st_size == 0) fail(path, "empty file");
+
+  const std::string ext = lowerExtension(path);
+  pcl::PCLPointCloud2 blob;
+  Eigen::Vector4f origin = Eigen::Vector4f::Zero();
+  Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+  int rc = -1;
+  try {
+    if (ext == "pcd") {
+      // Our own reader: PCL's trusts the header's description of the body (see pcd_reader.h).
+      CloudFile out = detail::readPcdFile(path, static_cast<std::uintmax_t>(st.st_size));
+      out.cloud.sensor_origin_.head<3>() = out.T_frame_sensor.translation().cast<float>();
+      out.cloud.sensor_origin_[3] = 0.f;
+      out.cloud.sensor_orientation_ = Eigen::Quaternionf(out.T_frame_sensor.linear().cast<float>());
+      return out;
+    } else if (ext == "ply") {
+      validatePlyHeader(path, static_cast<std::uintmax_t>(st.st_size));
+      pcl::PLYReader reader;
+      int version = 0;
+      rc = reader.read(path, blob, origin, orientation, version);
+    } else {
+      fail(path, "unknown extension '." + ext + "' (expected .pcd or .ply)");
+    }
+  } catch (const std::runtime_error&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(path, e.what());
+  }
+  if (rc < 0) fail(path, "malformed or truncated " + ext + " file");
+  if (!hasFloatField(blob, "x") || !hasFloatField(blob, "y") || !hasFloatField(blob, "z")) {
+    fail(path, "it has no float x, y, z fields");
+  }
+  const std::size_t expected = static_cast<std::size_t>(blob.width) * blob.height * blob.point_step;
+  if (blob.data.size() < expected) fail(path, "data shorter than its header declares");
+
+  CloudFile out;
+  // An empty cloud is valid; PCL's conversion would index its empty buffers.
+  if (blob.width * blob.height > 0) pcl::fromPCLPointCloud2(blob, out.cloud);
+  const Eigen::Quaterniond q = orientation.cast<double>();
+  out.T_frame_sensor.linear() =
+      q.norm() > 0.5 ? q.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();
+  out.T_frame_sensor.translation() = origin.head<3>().cast<double>();
+  // Keep the viewpoint on the cloud too, as PCL does, for code that reads it from there.
+  out.cloud.sensor_origin_ = Eigen::Vector4f(origin[0], origin[1], origin[2], 0.f);
+  out.cloud.sensor_orientation_ = Eigen::Quaternionf(out.T_frame_sensor.linear().cast<float>());
+  return out;
+}
+
+Cloud loadCloud(const std::string& path) { return loadCloudFile(path).cloud; }
+
+void saveCloudAtomic(const std::string& path, const Cloud& cloud,
+                     const Eigen::Isometry3d& T_frame_sensor) {
+  Cloud copy = cloud;
+  copy.sensor_origin_.head<3>() = T_frame_sensor.translation().cast<float>();
+  copy.sensor_origin_[3] = 0.f;
+  copy.sensor_orientation_ = Eigen::Quaternionf(T_frame_sensor.linear().cast<float>());
+  if (copy.width * copy.height != copy.size()) {
+    copy.width = static_cast<std::uint32_t>(copy.size());
+    copy.height = 1;
+  }
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  pcl::PCDWriter writer;
+  int rc = -1;
+  try {
+    rc = writer.writeBinary(tmp, copy);
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write '" + path + "': " + e.what());
+  }
+  if (rc < 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write '" + path + "'");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write '" + path + "': rename failed");
+  }
+}
+
+}  // namespace novelty_detection

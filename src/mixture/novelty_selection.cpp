@@ -1,0 +1,97 @@
+#include "novelty_detection/mixture/novelty_selection.h"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+namespace novelty_detection {
+
+GreedyNoveltySelector::GreedyNoveltySelector(const SelectionParams& params) : params_(params) {
+  params_.validate();
+}
+
+SelectionResult GreedyNoveltySelector::select(const Gmm& current, const Gmm& reference,
+                                              double u_th) const {
+  Eigen::VectorXd p(current.size()), q(reference.size());
+  for (std::size_t i = 0; i < current.size(); ++i) p[i] = current.components[i].weight;
+  for (std::size_t j = 0; j < reference.size(); ++j) q[j] = reference.components[j].weight;
+  return select(
+      p, q, groundDistanceMatrix(current, reference, parseGroundDistance(params_.ground_distance)),
+      u_th);
+}
+
+SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const Eigen::VectorXd& q,
+                                              const Eigen::MatrixXd& d, double u_th) const {
+  if (u_th < 0) u_th = params_.u_th;
+  SelectionResult out;
+  const Eigen::Index n = p_in.size();
+  const EmdSolver solver(d);  // validates sizes and values on the first solve
+  Eigen::VectorXd p = p_in;
+  EmdResult full = solver.solve(p, q, true);
+  out.emd_before = full.distance;
+  out.emd_trace.push_back(full.distance);
+  if (n == 0 || q.size() == 0) {
+    out.emd_after = out.emd_before;
+    return out;
+  }
+  const Eigen::VectorXd nearest = d.rowwise().minCoeff();  // min_j d_ij
+  const double q_mass = q.sum();
+  double current = full.distance;
+
+  while (static_cast<int>(out.novel.size()) < params_.max_novel_gaussians) {
+    if (!(current > u_th)) break;
+    const double mass = p.sum();
+    const double near_cost = p.dot(nearest);
+    const Eigen::VectorXd row_cost = (full.flows.cwiseProduct(d)).rowwise().sum();
+    struct Candidate {
+      Eigen::Index i;
+      double ub, lb;
+    };
+    std::vector<Candidate> cands;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!(p[i] > 0)) continue;
+      const double rest = mass - p[i];
+      Candidate c{i, 0.0, 0.0};
+      if (rest > 0) {
+        c.ub = std::max(0.0, full.cost - row_cost[i]) / rest;
+        // The lower bound holds while the remaining Theta is the lighter side.
+        c.lb = rest <= q_mass ? std::max(0.0, near_cost - p[i] * nearest[i]) / rest : 0.0;
+      }
+      cands.push_back(c);
+    }
+    if (cands.empty()) break;
+    std::stable_sort(cands.begin(), cands.end(),
+                     [](const Candidate& a, const Candidate& b) { return a.ub < b.ub; });
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Index best_i = -1;
+    for (const Candidate& c : cands) {
+      if (best_i >= 0 && c.lb > best * (1.0 + 1e-9) + 1e-15) continue;
+      double value = 0.0;  // an emptied Theta has nothing left to move
+      if (mass - p[c.i] > 0) {
+        const double saved = p[c.i];
+        p[c.i] = 0.0;
+        value = solver.solve(p, q).distance;
+        p[c.i] = saved;
+        ++out.exact_evaluations;
+      }
+      const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
+      if (best_i < 0 || value < best - tol || (value <= best + tol && c.i < best_i)) {
+        best = value;
+        best_i = c.i;
+      }
+    }
+    const double decrease = current - best;
+    if (!(decrease >= params_.min_relative_decrease * current) || !(decrease > 0)) break;
+    p[best_i] = 0.0;
+    out.novel.push_back(static_cast<int>(best_i));
+    out.decrease.push_back(decrease);
+    out.emd_trace.push_back(best);
+    current = best;
+    full = solver.solve(p, q, true);
+  }
+  out.emd_after = current;
+  return out;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,323 @@
+// The detection chain (paper Fig. 2), one named stage after another (Pipeline::detect):
+// fine alignment -> pre-processing and the multi-scale cut -> distances to the map (tau) ->
+// the current mixture (EM) -> greedy EMD selection (Algorithm 1) -> novel points and their
+// segments -> disappearances -> hidden-space rules -> labels -> newly visible points ->
+// superquadrics. The reference's model is built once by setReference().
+#include "novelty_detection/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/mixture/gmm.h"
+#include "novelty_detection/mixture/novelty_selection.h"
+#include "novelty_detection/segmentation/hidden_segments.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/visibility/disappearance.h"
+#include "novelty_detection/visibility/visibility.h"
+#include "reference_model.h"
+#include "segmentation/novelty_candidates.h"
+
+namespace novelty_detection {
+
+namespace {
+
+Eigen::Vector3f point3f(const PointT& p) { return Eigen::Vector3f(p.x, p.y, p.z); }
+
+/// The current mixture Theta. With gmm/current_from_reference, the surfaces the map already
+/// explains keep the map's Gaussians (EM on the weights only), so that the EMD measures
+/// change rather than EM's local optima on two samplings of one scene; Gaussians for what
+/// the map does not explain are fitted by EM on the fine clusters farther than tau from the
+/// map; then the weights of the joint mixture are re-estimated on the whole sweep.
+Gmm fitCurrent(const GmmParams& params, const WeightedPoints& reps, const Gmm& reference,
+               const WeightedPoints& far) {
+  GmmFitter fitter(params);
+  if (!params.current_from_reference || reference.empty()) return fitter.fit(reps);
+  Gmm init = reference;
+  if (far.size() > 0 && params.max_extra_components > 0) {
+    GmmParams extra_params = params;
+    extra_params.max_components = params.max_extra_components;
+    const GmmFitter extra_fitter(extra_params);
+    const Gmm extra = extra_fitter.fit(far);
+    for (const auto& g : extra.components) init.components.push_back(g);
+  }
+  for (auto& g : init.components) g.weight = 1.0 / static_cast<double>(init.size());
+  return fitter.fitWeights(reps, init);
+}
+
+/// The state one detect() call hands from stage to stage.
+struct Detection {
+  Detection(const Params& p, const ReferenceModel& r, const Cloud& input)
+      : params(p), ref(r), timer(result) {
+    result.labels.assign(input.size(), 0);
+    result.newly_visible.assign(input.size(), 0);
+    result.disappeared_labels.assign(ref.cloud.size(), 0);
+    result.point_counts.emplace_back("input", input.size());
+  }
+  const Params& params;
+  const ReferenceModel& ref;
+  Result result;
+  StageTimer timer;
+  Cloud aligned;                   ///< the sweep moved by the fine alignment, when applied
+  const Cloud* current = nullptr;  ///< the sweep in the map frame (input or aligned)
+  Simplified s;
+  double tau = 0.0;    ///< novelty distance from the data (novelty_segmentation.h)
+  WeightedPoints far;  ///< fine clusters farther than tau from the map
+  SelectionResult selection;
+  detail::NoveltyCandidates candidates;
+  std::vector<Indices> pieces;  ///< the segments' points, largest first
+  std::vector<int> owner_of;    ///< per current point: its novel Gaussian, or -1
+  double link_radius = 0.0;
+  RangeImage current_view;  ///< the sweep from its own origin (when needed and known)
+};
+
+/// Fine alignment: every later stage sees the sweep in the map frame, in input order.
+void alignToMap(const Cloud& input, Detection& d) {
+  d.current = &input;
+  if (!d.params.alignment.enabled || input.empty()) return;
+  d.result.alignment = FineAligner(d.params.alignment).estimate(d.ref.planes, input);
+  if (d.result.alignment.applied) {
+    d.aligned = transformCloud(input, d.result.alignment.correction);
+    d.current = &d.aligned;
+  }
+  d.timer.lap("alignment");
+}
+
+/// Data scale: tau from the distances of a sample of current points to the map (Sec. IV-D
+/// check), and the fine clusters farther than tau, which seed the extra Gaussians of Theta.
+void measureDistancesToMap(Detection& d) {
+  const Cloud& current = *d.current;
+  const Indices& kept = d.s.pre.kept;
+  std::vector<double> sample;
+  const std::size_t stride = std::max<std::size_t>(1, kept.size() / 2000);
+  for (std::size_t i = 0; i < kept.size(); i += stride)
+    sample.push_back(d.ref.points.distance(point3f(current[kept[i]])));
+  d.tau = noveltyDistanceThreshold(sample, d.params.segmentation.novelty_distance_factor,
+                                   d.params.segmentation.min_novelty_distance_m);
+  std::vector<Eigen::Index> far_idx;
+  for (std::size_t c = 0; c < d.s.fine.points.size(); ++c)
+    if (d.ref.points.distance(d.s.fine.points[c]) > d.tau) far_idx.push_back(c);
+  d.far.points.resize(3, far_idx.size());
+  d.far.weights.resize(far_idx.size());
+  for (std::size_t k = 0; k < far_idx.size(); ++k) {
+    d.far.points.col(k) = d.s.fine.points[far_idx[k]].cast<double>();
+    d.far.weights[k] = d.s.fine.sizes[far_idx[k]];
+  }
+  d.timer.lap("distances");
+}
+
+void fitCurrentMixture(Detection& d) {
+  d.result.current_gmm = fitCurrent(d.params.gmm, d.s.reps, d.ref.gmm, d.far);
+  d.timer.lap("gmm");
+}
+
+/// Algorithm 1 with the stop rule of novelty_selection.h.
+void selectNovelGaussians(Detection& d) {
+  const SelectionParams& p = d.params.selection;
+  const double u_th = std::max(p.u_th, p.u_th_noise_factor * d.tau);
+  d.selection = GreedyNoveltySelector(p).select(d.result.current_gmm, d.ref.gmm, u_th);
+  d.result.emd_before = d.selection.emd_before;
+  d.result.emd_after = d.selection.emd_after;
+  d.result.novel_gaussian.assign(d.result.current_gmm.size(), false);
+  for (int k : d.selection.novel) d.result.novel_gaussian[k] = true;
+  d.timer.lap("selection");
+}
+
+/// ChoosePtfromGaussian (posterior mass of the novel Gaussians, the distance check and the
+/// visibility rule: segmentation/novelty_candidates.h), then the novel points' segments
+/// (linked pieces, merged per novel Gaussian: novelty_segmentation.h).
+void segmentCandidates(Detection& d) {
+  const Cloud& current = *d.current;
+  detail::CandidateReference cref;
+  cref.gmm = &d.ref.gmm;
+  cref.points = &d.ref.points;
+  cref.visibility = &d.ref.visibility;
+  cref.explained_log_density = d.ref.explained_log_density;
+  d.candidates = detail::chooseNoveltyCandidates(current, d.s.pre.kept, d.s.cut.cluster_of,
+                                                 d.s.reps, d.result.current_gmm, d.selection.novel,
+                                                 cref, d.tau, d.params);
+  const detail::NoveltyCandidates& cand = d.candidates;
+  d.result.point_counts.emplace_back("novel_points", cand.novel.size());
+  const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
+  d.pieces = segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians,
+                                d.params.segmentation, &d.link_radius);
+  d.owner_of.assign(current.size(), -1);
+  for (std::size_t k = 0; k < cand.novel.size(); ++k) d.owner_of[cand.novel[k]] = cand.owner[k];
+  d.timer.lap("segmentation");
+}
+
+bool hiddenSegmentRuleApplies(const Detection& d) {
+  return d.params.segmentation.hidden.segments && !d.candidates.hidden.empty();
+}
+
+/// The current sweep from its own origin: disappearances and hidden segments both look
+/// through it, so it is built once, and only when one of them will.
+void buildCurrentView(Detection& d) {
+  const Cloud& current = *d.current;
+  const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
+  if (sensorOriginKnown(origin) &&
+      (d.params.visibility.disappearances || hiddenSegmentRuleApplies(d)))
+    d.current_view.build(current, {}, origin, rangeImageConfig(d.params.visibility));
+}
+
+/// Reference structure the sweep now sees through (visibility/disappearance.h). Runs before
+/// the hidden segments: their rule skips the reference points that left.
+void findDisappearedStructure(Detection& d) {
+  if (findDisappearances(d.params, d.ref.cloud, d.ref.kept, *d.current, d.tau, &d.result,
+                         &d.current_view))
+    d.timer.lap("disappearances");
+}
+
+/// Candidates the reference could not see (segmentation/hidden_segments.h): whole segments
+/// that stand in space (a door leaf swung into the old leaf's shadow), then hidden points
+/// that continue a novel segment.
+void addHiddenNovelties(Detection& d) {
+  const detail::NoveltyCandidates& cand = d.candidates;
+  if (hiddenSegmentRuleApplies(d)) {
+    const Indices& kept = d.ref.kept;
+    std::vector<std::uint8_t> gone(kept.size(), 0);  // per structure point
+    for (std::size_t k = 0; k < kept.size(); ++k)
+      gone[k] = d.result.disappeared_labels[kept[k]] > 0;
+    for (Indices& seg :
+         novelHiddenSegments(*d.current, cand.hidden, cand.hidden_owner, cand.hidden_vis,
+                             static_cast<int>(d.result.current_gmm.size()), d.ref.structure, gone,
+                             d.tau, d.params, &d.current_view))
+      d.pieces.push_back(std::move(seg));
+    std::stable_sort(d.pieces.begin(), d.pieces.end(),
+                     [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+    d.timer.lap("hidden_segments");
+  }
+  if (d.params.segmentation.hidden.continuations && !cand.hidden.empty()) {
+    growIntoHidden(*d.current, &d.pieces, cand.hidden, d.link_radius);
+    d.timer.lap("hidden_continuations");
+  }
+  for (std::size_t k = 0; k < cand.hidden.size(); ++k)
+    d.owner_of[cand.hidden[k]] = cand.hidden_owner[k];
+}
+
+/// Segments from the pieces: ids 1.. largest first, labels per point, the Gaussians that
+/// own their points and the EMD decrease those Gaussians earned.
+void labelSegments(Detection& d) {
+  Result& result = d.result;
+  std::vector<double> decrease(result.current_gmm.size(), 0.0);
+  for (std::size_t t = 0; t < d.selection.novel.size(); ++t)
+    decrease[d.selection.novel[t]] = d.selection.decrease[t];
+  for (const Indices& c : d.pieces) {
+    Segment seg = makeSegment(*d.current, c, static_cast<int>(result.segments.size()) + 1);
+    std::vector<int> votes(result.current_gmm.size(), 0);
+    for (int i : seg.indices) {
+      result.labels[i] = seg.id;
+      ++votes[d.owner_of[i]];
+    }
+    for (std::size_t k = 0; k < votes.size(); ++k) {
+      if (votes[k] > 0) {
+        seg.gaussians.push_back(static_cast<int>(k));
+        seg.emd_contribution += decrease[k];
+      }
+    }
+    result.segments.push_back(std::move(seg));
+  }
+  labelDuplicates(d.s.pre.duplicates, d.s.pre.duplicate_of, result.labels, result.segments);
+  std::size_t labelled = 0;
+  if (!d.candidates.novel.empty())
+    for (const auto& seg : result.segments) labelled += seg.indices.size();
+  result.point_counts.emplace_back("labelled", labelled);
+}
+
+/// Current points far from the map in space the reference never observed (visibility.h).
+void markNewlyVisible(Detection& d) {
+  if (!d.params.visibility.newly_visible) return;
+  const ReferenceModel& ref = d.ref;
+  d.result.newly_visible = newlyVisible(
+      *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * d.tau, d.tau,
+      [&ref](const Eigen::Vector3f& p) { return ref.points.distance(p); });
+  d.timer.lap("newly_visible");
+}
+
+/// Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
+/// the coarse points. A failed fit never loses the detection.
+void fitSuperquadrics(Detection& d) {
+  const SuperquadricParams& p = d.params.superquadric;
+  Result& result = d.result;
+  if (p.enabled && !result.segments.empty()) {
+    ShapeRetrieval retrieval(p);
+    retrieval.setThreads(d.params.compute.resolved());
+    const MultiScaleTree::Cut& fine_cut = d.s.fine;
+    for (const Segment& seg : result.segments) {
+      Points3d fine, coarse;
+      fine.reserve(seg.indices.size());
+      std::vector<char> seen(fine_cut.points.size(), 0);
+      for (int i : seg.indices) {
+        fine.push_back(point3f((*d.current)[i]).cast<double>());
+        const int c = fine_cut.cluster_of[i];
+        if (c >= 0 && !seen[c]) {
+          seen[c] = 1;
+          coarse.push_back(fine_cut.points[c].cast<double>());
+        }
+      }
+      try {
+        for (Superquadric sq : retrieval.recover(fine, coarse, seg.id)) {
+          for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
+          result.superquadrics.push_back(std::move(sq));
+        }
+      } catch (const std::exception&) {
+        // Keep the segment without a shape.
+      }
+    }
+    d.timer.lap("superquadrics");
+  }
+  if (p.enabled && !result.disappeared_segments.empty()) {
+    fitDisappearedSuperquadrics(p, d.ref.cloud, &result);
+    d.timer.lap("disappeared_superquadrics");
+  }
+}
+
+}  // namespace
+
+Pipeline::Pipeline(const Params& params) : params_(params) { params_.validate(); }
+Pipeline::~Pipeline() = default;
+Pipeline::Pipeline(Pipeline&&) noexcept = default;
+Pipeline& Pipeline::operator=(Pipeline&&) noexcept = default;
+
+void Pipeline::setReference(const Cloud& reference) {
+  reference_ = buildReferenceModel(params_, reference);
+}
+
+const Cloud& Pipeline::referenceCloud() const {
+  if (!reference_) throw std::logic_error("no reference set");
+  return reference_->cloud;
+}
+
+const Gmm& Pipeline::referenceGmm() const {
+  static const Gmm empty;
+  return reference_ ? reference_->gmm : empty;
+}
+
+Result Pipeline::detect(const Cloud& input) const {
+  if (!reference_) throw std::logic_error("detect() called before setReference()");
+  if (input.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
+    throw std::invalid_argument("cloud has " + std::to_string(input.size()) +
+                                " points, more than preprocess/max_points");
+  }
+  Detection d(params_, *reference_, input);
+  alignToMap(input, d);
+  d.s = simplify(params_, *d.current, &d.result, &d.timer);
+  if (d.s.reps.size() == 0) return std::move(d.result);  // empty or all-NaN: nothing is novel
+  measureDistancesToMap(d);
+  fitCurrentMixture(d);
+  selectNovelGaussians(d);
+  segmentCandidates(d);
+  buildCurrentView(d);
+  findDisappearedStructure(d);
+  addHiddenNovelties(d);
+  labelSegments(d);
+  markNewlyVisible(d);
+  fitSuperquadrics(d);
+  return std::move(d.result);
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,272 @@
+// Pauly, Gross & Kobbelt (2002) hierarchical clustering, built once and cut at any scale
+// (paper Sec. IV-A).
+//
+// Build: every node keeps its first and second moments in double, centred on its PARENT's
+// centroid (a point close to the node, so the covariance E[xx^T] - mm^T does not cancel
+// catastrophically even for clouds far from the origin). Splitting a node partitions its
+// range of order_ in place around the plane through its centroid normal to the eigenvector
+// of the largest eigenvalue, and accumulates both children's moments in the same pass; the
+// build is therefore one pass per tree level, O(N log N).
+#include "novelty_detection/preprocess/multiscale_tree.h"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace novelty_detection {
+namespace {
+
+/// Running sums of a point set, relative to an origin o: n, sum(p - o), sum((p-o)(p-o)^T).
+struct Moments {
+  double n = 0.0;
+  Eigen::Vector3d s = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d ss = Eigen::Matrix3d::Zero();
+
+  void add(const Eigen::Vector3d& d) {
+    n += 1.0;
+    s += d;
+    ss.noalias() += d * d.transpose();
+  }
+};
+
+struct Stats {
+  Eigen::Vector3d centroid;
+  Eigen::Matrix3d covariance;
+  Eigen::Vector3d eigenvalues;  ///< ascending, clamped at 0
+  Eigen::Vector3d major_axis;   ///< eigenvector of the largest eigenvalue
+};
+
+Stats statsOf(const Moments& m, const Eigen::Vector3d& origin) {
+  Stats st;
+  const Eigen::Vector3d mean = m.s / m.n;
+  st.centroid = origin + mean;
+  st.covariance = m.ss / m.n - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(st.covariance);
+  st.eigenvalues = es.eigenvalues().cwiseMax(0.0);
+  st.major_axis = es.eigenvectors().col(2);
+  return st;
+}
+
+/// Surface variation sigma = l0 / (l0 + l1 + l2) (Pauly et al. 2002, eq. 2); 0 for a
+/// cluster without spread (one point or duplicates), which is as flat as it gets.
+double surfaceVariation(const Eigen::Vector3d& l) {
+  const double total = l.sum();
+  return total > 0.0 ? l(0) / total : 0.0;
+}
+
+}  // namespace
+
+void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
+  nodes_.clear();
+  order_.clear();
+  cloud_size_ = cloud.size();
+  noise_variance_m2_ = 0.0;
+
+  auto finite = [&cloud](int i) {
+    const PointT& p = cloud[i];
+    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+  };
+  if (indices.empty()) {
+    order_.reserve(cloud.size());
+    for (int i = 0; i < static_cast<int>(cloud.size()); ++i) {
+      if (finite(i)) order_.push_back(i);
+    }
+  } else {
+    std::vector<char> seen(cloud.size(), 0);
+    order_.reserve(indices.size());
+    for (int i : indices) {
+      if (i < 0 || i >= static_cast<int>(cloud.size())) {
+        throw std::invalid_argument("MultiScaleTree::build: index " + std::to_string(i) +
+                                    " outside a cloud of " + std::to_string(cloud.size()) +
+                                    " points");
+      }
+      if (seen[i]) {
+        throw std::invalid_argument("MultiScaleTree::build: index " + std::to_string(i) +
+                                    " given twice");
+      }
+      seen[i] = 1;
+      if (finite(i)) order_.push_back(i);  // non-finite points are left out (cluster -1)
+    }
+  }
+  const int n = static_cast<int>(order_.size());
+  if (n == 0) return;
+
+  // Points in tree order, permuted together with order_ (contiguous, cache friendly).
+  std::vector<Eigen::Vector3d> pts(n);
+  for (int k = 0; k < n; ++k) pts[k] = cloud[order_[k]].getVector3fMap().cast<double>();
+
+  // A binary tree with leaves of >= 1 point has at most 2n - 1 nodes.
+  nodes_.reserve(static_cast<std::size_t>(2 * n / std::max(1, kMaxLeafSize / 2) + 1));
+  std::vector<Moments> moments;  // per node, relative to origins[node]
+  std::vector<Eigen::Vector3d> origins;
+  moments.reserve(nodes_.capacity());
+  origins.reserve(nodes_.capacity());
+
+  {
+    Node root;
+    root.begin = 0;
+    root.end = n;
+    Moments m;
+    const Eigen::Vector3d o = pts[0];  // any point of the cloud keeps sums well scaled
+    for (const auto& p : pts) m.add(p - o);
+    nodes_.push_back(root);
+    moments.push_back(m);
+    origins.push_back(o);
+  }
+
+  // Nodes are appended in creation order; processing them in that order is a BFS.
+  for (std::size_t id = 0; id < nodes_.size(); ++id) {
+    const Stats st = statsOf(moments[id], origins[id]);
+    Node& node = nodes_[id];
+    node.centroid = st.centroid.cast<float>();
+    node.covariance = st.covariance.cast<float>();
+    node.sigma = static_cast<float>(surfaceVariation(st.eigenvalues));
+    node.eigenvalues = st.eigenvalues.cast<float>();
+
+    const int size = node.size();
+    if (size <= kMaxLeafSize) continue;
+    // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
+    // check runs only when the spread is at rounding level of the moments.
+    const Moments& m = moments[id];
+    if (st.eigenvalues(2) <= 1e-10 * (m.ss.trace() / m.n) &&
+        std::all_of(pts.begin() + node.begin, pts.begin() + node.end,
+                    [&](const Eigen::Vector3d& p) { return p == pts[node.begin]; })) {
+      continue;
+    }
+
+    // Partition [begin, end) by the side of the split plane (Pauly et al. 2002, Sec. 3.1).
+    const Eigen::Vector3d c = st.centroid;
+    const Eigen::Vector3d axis = st.major_axis;
+    int lo = node.begin, hi = node.end - 1;
+    while (lo <= hi) {
+      if ((pts[lo] - c).dot(axis) < 0.0) {
+        ++lo;
+      } else {
+        std::swap(pts[lo], pts[hi]);
+        std::swap(order_[lo], order_[hi]);
+        --hi;
+      }
+    }
+    int mid = lo;
+    if (mid == node.begin || mid == node.end) {
+      // Rounding left one side empty (near-duplicates far from the origin): split at the
+      // median projection instead, which always makes progress.
+      mid = node.begin + size / 2;
+      std::vector<std::pair<double, int>> proj(size);
+      for (int k = 0; k < size; ++k) {
+        proj[k] = {pts[node.begin + k].dot(axis), k};
+      }
+      std::nth_element(proj.begin(), proj.begin() + size / 2, proj.end());
+      std::vector<Eigen::Vector3d> p2(size);
+      Indices o2(size);
+      for (int k = 0; k < size; ++k) {
+        p2[k] = pts[node.begin + proj[k].second];
+        o2[k] = order_[node.begin + proj[k].second];
+      }
+      std::copy(p2.begin(), p2.end(), pts.begin() + node.begin);
+      std::copy(o2.begin(), o2.end(), order_.begin() + node.begin);
+    }
+    Moments ml, mr;
+    for (int k = node.begin; k < mid; ++k) ml.add(pts[k] - c);
+    for (int k = mid; k < node.end; ++k) mr.add(pts[k] - c);
+
+    Node left, right;
+    left.begin = node.begin;
+    left.end = mid;
+    right.begin = mid;
+    right.end = node.end;
+    left.parent = right.parent = static_cast<int>(id);
+    const int left_id = static_cast<int>(nodes_.size());
+    nodes_[id].left = left_id;  // `node` may dangle after the push_backs below
+    nodes_[id].right = left_id + 1;
+    nodes_.push_back(left);
+    nodes_.push_back(right);
+    moments.push_back(ml);
+    moments.push_back(mr);
+    origins.push_back(c);
+    origins.push_back(c);
+  }
+
+  // Noise: on a plane, n * l0 / noise_var is chi-square with n - 3 degrees of freedom (the
+  // residuals about the fitted plane), whose median is ~ nu (1 - 2 / (9 nu))^3; dividing
+  // that out makes every node an unbiased vote, and the median of the votes ignores the
+  // minority of nodes on edges and corners.
+  std::vector<double> l0;
+  for (const Node& node : nodes_) {
+    const int size = node.size();
+    // Plate-like nodes only: where the in-plane spread is not far above the noise, splits
+    // start cutting through the noise itself and the small l0 left would bias the vote.
+    if (size < 16 || size > 256 || node.eigenvalues(1) < 10.f * node.eigenvalues(0)) continue;
+    const double nu = size - 3.0;
+    const double median_factor = std::pow(1.0 - 2.0 / (9.0 * nu), 3.0);
+    l0.push_back(node.eigenvalues(0) * size / (nu * median_factor));
+  }
+  if (!l0.empty()) {
+    std::nth_element(l0.begin(), l0.begin() + l0.size() / 2, l0.end());
+    noise_variance_m2_ = l0[l0.size() / 2];
+  }
+}
+
+MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {
+  return cut(n_max, sigma_max, 0.0);
+}
+
+MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max, double noise_var_m2) const {
+  if (n_max < 1) throw std::invalid_argument("MultiScaleTree::cut: n_max must be >= 1");
+  if (!(sigma_max >= 0.0)) {
+    throw std::invalid_argument("MultiScaleTree::cut: sigma_max must be >= 0");
+  }
+  if (!(noise_var_m2 >= 0.0)) {
+    throw std::invalid_argument("MultiScaleTree::cut: noise_var_m2 must be >= 0");
+  }
+  // Surface variation with the noise's share of l0 taken out (exactly Pauly's for 0).
+  auto flat = [&](const Node& node) {
+    if (noise_var_m2 == 0.0) return node.sigma <= sigma_max;
+    const double total = node.eigenvalues.cast<double>().sum();
+    const double excess = std::max(0.0, node.eigenvalues(0) - noise_var_m2);
+    return total <= 0.0 || excess <= sigma_max * total;
+  };
+  Cut cut;
+  cut.cluster_of.assign(cloud_size_, -1);
+  if (nodes_.empty()) return cut;
+
+  // Top-down: the first node on each root-to-leaf path that is small and flat enough is a
+  // cluster (Pauly et al. split while |P| > n_max or sigma > sigma_max).
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const int id = stack.back();
+    stack.pop_back();
+    const Node& node = nodes_[id];
+    if (node.isLeaf() || (node.size() <= n_max && flat(node))) {
+      const int cluster = static_cast<int>(cut.nodes.size());
+      cut.nodes.push_back(id);
+      cut.points.push_back(node.centroid);
+      cut.sizes.push_back(node.size());
+      for (int k = node.begin; k < node.end; ++k) cut.cluster_of[order_[k]] = cluster;
+    } else {
+      stack.push_back(node.right);  // left popped first: clusters follow tree order
+      stack.push_back(node.left);
+    }
+  }
+  return cut;
+}
+
+MultiScaleTree::Cut MultiScaleTree::cut(const MultiScaleParams& params) const {
+  params.validate();
+  return cut(params.n_max, params.sigma_max,
+             params.noise_aware ? params.noise_factor * noise_variance_m2_ : 0.0);
+}
+
+Indices MultiScaleTree::nodeIndices(int node) const {
+  if (node < 0 || node >= static_cast<int>(nodes_.size())) {
+    throw std::out_of_range("MultiScaleTree::nodeIndices: no node " + std::to_string(node));
+  }
+  const Node& n = nodes_[node];
+  return Indices(order_.begin() + n.begin, order_.begin() + n.end);
+}
+
+}  // namespace novelty_detection

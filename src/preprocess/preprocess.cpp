@@ -1,0 +1,172 @@
+// Pre-processing chain (paper Sec. IV-A): finite points -> sparse outlier removal (Rusu et
+// al. 2008) -> ground plane removal (ground_plane.cpp). Indices always refer to the input.
+#include "novelty_detection/preprocess/preprocess.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+
+#include "common/knn.h"
+
+namespace novelty_detection {
+
+Indices finiteIndices(const Cloud& cloud) {
+  Indices out;
+  out.reserve(cloud.size());
+  for (int i = 0; i < static_cast<int>(cloud.size()); ++i) {
+    const PointT& p = cloud[i];
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) out.push_back(i);
+  }
+  return out;
+}
+
+Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* duplicates,
+                         Indices* duplicate_of) {
+  // Sort by coordinates (ties by index, so the first occurrence leads each run of equals).
+  Indices order = indices;
+  auto key = [&cloud](int i) { return std::make_tuple(cloud[i].x, cloud[i].y, cloud[i].z, i); };
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::vector<std::pair<int, int>> repeats;  // (duplicate, first occurrence)
+  for (std::size_t k = 1, first = 0; k < order.size(); ++k) {
+    const PointT& a = cloud[order[first]];
+    const PointT& b = cloud[order[k]];
+    if (a.x == b.x && a.y == b.y && a.z == b.z)
+      repeats.emplace_back(order[k], order[first]);
+    else
+      first = k;
+  }
+  std::sort(repeats.begin(), repeats.end());
+  if (duplicates) duplicates->clear();
+  if (duplicate_of) duplicate_of->clear();
+  Indices unique;
+  unique.reserve(indices.size() - repeats.size());
+  std::size_t r = 0;
+  for (int i : indices) {
+    if (r < repeats.size() && repeats[r].first == i) {
+      if (duplicates) duplicates->push_back(i);
+      if (duplicate_of) duplicate_of->push_back(repeats[r].second);
+      ++r;
+    } else {
+      unique.push_back(i);
+    }
+  }
+  return unique;
+}
+
+namespace {
+
+/// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
+/// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
+/// spacing).
+Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
+                            const Eigen::Vector3f* origin, Indices* removed) {
+  if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
+  if (!(std_mul >= 0.0)) {
+    throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
+  }
+  if (origin && !origin->allFinite()) {
+    throw std::invalid_argument("removeSparseOutliers: the sensor origin is not finite");
+  }
+  if (removed) removed->clear();
+  std::vector<Eigen::Vector3f> pts;
+  Indices valid;  // the finite subset of `indices`; non-finite ones count as removed
+  pts.reserve(indices.size());
+  valid.reserve(indices.size());
+  for (int i : indices) {
+    if (i < 0 || i >= static_cast<int>(cloud.size())) {
+      throw std::invalid_argument("removeSparseOutliers: index " + std::to_string(i) +
+                                  " outside a cloud of " + std::to_string(cloud.size()) +
+                                  " points");
+    }
+    const Eigen::Vector3f p = cloud[i].getVector3fMap();
+    if (p.allFinite()) {
+      pts.push_back(p);
+      valid.push_back(i);
+    } else if (removed) {
+      removed->push_back(i);
+    }
+  }
+  const int n = static_cast<int>(pts.size());
+  if (n < 2) return valid;  // no neighbours, no statistics
+
+  // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
+  // the distribution of those means.
+  std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  if (origin) {
+    for (int j = 0; j < n; ++j) {
+      mean_dist[j] /= std::max(1.0, static_cast<double>((pts[j] - *origin).norm()));
+    }
+  }
+  double mu = 0.0;
+  for (double v : mean_dist) mu += v;
+  mu /= n;
+  double var = 0.0;
+  for (double v : mean_dist) var += (v - mu) * (v - mu);
+  const double limit = mu + std_mul * std::sqrt(var / n);
+
+  Indices kept;
+  kept.reserve(n);
+  for (int j = 0; j < n; ++j) {
+    if (mean_dist[j] <= limit) {
+      kept.push_back(valid[j]);
+    } else if (removed) {
+      removed->push_back(valid[j]);
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
+                             Indices* removed) {
+  return statisticalOutliers(cloud, indices, k, std_mul, nullptr, removed);
+}
+
+Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
+                                        double std_mul, const Eigen::Vector3f& sensor_origin,
+                                        Indices* removed) {
+  return statisticalOutliers(cloud, indices, k, std_mul, &sensor_origin, removed);
+}
+
+Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) { params_.validate(); }
+
+PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
+  return compute(cloud, cloud.sensor_origin_.head<3>());
+}
+
+PreprocessResult Preprocessor::compute(const Cloud& cloud,
+                                       const Eigen::Vector3f& sensor_origin) const {
+  if (cloud.size() > static_cast<std::size_t>(params_.max_points)) {
+    throw std::invalid_argument(
+        "Preprocessor: cloud has " + std::to_string(cloud.size()) +
+        " points, more than preprocess/max_points = " + std::to_string(params_.max_points));
+  }
+  PreprocessResult result;
+  result.finite = finiteIndices(cloud);
+  Indices current =
+      removeDuplicates(cloud, result.finite, &result.duplicates, &result.duplicate_of);
+  if (params_.outlier_removal) {
+    current = params_.outlier_range_scaled
+                  ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
+                                                    params_.outlier_std_mul, sensor_origin,
+                                                    &result.outliers)
+                  : removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
+                                         &result.outliers);
+  }
+  if (params_.ground_removal) {
+    result.ground = findGroundPlane(cloud, current, params_,
+                                    sensorOriginKnown(sensor_origin) ? &sensor_origin : nullptr);
+  }
+  // current and the ground inliers are both ascending: a linear set difference.
+  result.kept.reserve(current.size());
+  std::set_difference(current.begin(), current.end(), result.ground.inliers.begin(),
+                      result.ground.inliers.end(), std::back_inserter(result.kept));
+  return result;
+}
+
+}  // namespace novelty_detection

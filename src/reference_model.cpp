@@ -1,0 +1,98 @@
+#include "reference_model.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace novelty_detection {
+namespace {
+
+Eigen::Vector3f point3f(const PointT& p) { return Eigen::Vector3f(p.x, p.y, p.z); }
+
+/// Multi-scale cut (Sec. IV-A) as weighted points: representative, cluster size, spread.
+WeightedPoints cutAsWeightedPoints(const MultiScaleTree& tree, const MultiScaleTree::Cut& cut) {
+  WeightedPoints w;
+  const Eigen::Index n = static_cast<Eigen::Index>(cut.points.size());
+  w.points.resize(3, n);
+  w.weights.resize(n);
+  w.covariances.resize(9, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    w.points.col(i) = cut.points[i].cast<double>();
+    w.weights[i] = cut.sizes[i];
+    const Eigen::Matrix3d c = tree.nodes()[cut.nodes[i]].covariance.cast<double>();
+    w.covariances.col(i) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(c.data());
+  }
+  return w;
+}
+
+}  // namespace
+
+Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer) {
+  Simplified s;
+  s.pre = Preprocessor(params.preprocess).compute(cloud);
+  if (result) {
+    result->point_counts.emplace_back("finite", s.pre.finite.size());
+    result->point_counts.emplace_back(
+        "after_outliers", s.pre.finite.size() - s.pre.duplicates.size() - s.pre.outliers.size());
+    result->point_counts.emplace_back("after_ground", s.pre.kept.size());
+  }
+  if (timer) timer->lap("preprocess");
+  if (!s.pre.kept.empty()) {
+    s.tree.build(cloud, s.pre.kept);
+    // The scale the mixture is fitted at: the (n_max, sigma_max) cut, coarsened by size
+    // alone when range noise makes sigma split nearly every cluster down to its leaves
+    // (sigma of a noisy plane patch exceeds sigma_max). Each representative carries its
+    // cluster's size and covariance, so EM still sees the full cloud's spread.
+    const int n_max = std::max(params.multiscale.n_max, static_cast<int>(s.pre.kept.size()) /
+                                                            std::max(1, params.gmm.max_fit_points));
+    s.fine = s.tree.cut(params.multiscale.n_max, params.multiscale.sigma_max);
+    s.cut = s.tree.cut(n_max, params.multiscale.sigma_max);
+    if (static_cast<int>(s.cut.points.size()) > params.gmm.max_fit_points)
+      s.cut = s.tree.cut(n_max, 1.0);
+    s.reps = cutAsWeightedPoints(s.tree, s.cut);
+  }
+  if (result) {
+    result->point_counts.emplace_back("clusters", s.fine.points.size());
+    result->point_counts.emplace_back("gmm_clusters", s.cut.points.size());
+  }
+  if (timer) timer->lap("multiscale");
+  return s;
+}
+
+std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
+                                                          const Cloud& reference) {
+  auto model = std::make_shared<ReferenceModel>();
+  model->cloud = reference;
+  const Simplified s = simplify(params, reference, nullptr, nullptr);
+  if (s.pre.kept.size() < 4) {
+    throw std::invalid_argument("reference cloud has " + std::to_string(s.pre.kept.size()) +
+                                " usable points after pre-processing; need at least 4");
+  }
+  model->gmm = GmmFitter(params.gmm).fit(s.reps);
+  model->points.build(reference, s.pre.finite);
+  if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
+  const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
+  if (sensorOriginKnown(origin))
+    model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params.visibility));
+  model->kept = s.pre.kept;
+  if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept);
+  if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
+    const std::size_t stride = std::max<std::size_t>(1, s.pre.kept.size() / 5000);
+    std::vector<int> sample;
+    for (std::size_t i = 0; i < s.pre.kept.size(); i += stride) sample.push_back(s.pre.kept[i]);
+    Eigen::Matrix3Xd x(3, sample.size());
+    for (std::size_t i = 0; i < sample.size(); ++i)
+      x.col(i) = point3f(reference[sample[i]]).cast<double>();
+    Eigen::VectorXd ll;
+    responsibilities(model->gmm, x, &ll);
+    std::vector<double> v(ll.data(), ll.data() + ll.size());
+    const auto q = static_cast<std::ptrdiff_t>(params.segmentation.map_likelihood_quantile *
+                                               static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), v.begin() + q, v.end());
+    model->explained_log_density = v[q];
+  }
+  return model;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,70 @@
+// The reference's model and the first stages every cloud goes through (pre-processing and
+// the multi-scale cut), shared by Pipeline::setReference and Pipeline::detect. Internal
+// header: only the detector's sources include it.
+#pragma once
+
+#include <chrono>
+#include <limits>
+#include <memory>
+
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/mixture/gmm.h"
+#include "novelty_detection/params.h"
+#include "novelty_detection/preprocess/multiscale_tree.h"
+#include "novelty_detection/preprocess/preprocess.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/types.h"
+#include "novelty_detection/visibility/visibility.h"
+
+namespace novelty_detection {
+
+struct ReferenceModel {
+  Cloud cloud;                      ///< as given
+  Gmm gmm;                          ///< Gamma
+  NearestNeighbourIndex points;     ///< every finite reference point (ground included)
+  NearestNeighbourIndex structure;  ///< the points of `kept`, in that order
+  RangeImage visibility;            ///< free / occupied / unknown seen from its viewpoint
+  Indices kept;                     ///< points that may disappear (no ground, no outliers)
+  AlignmentReference planes;        ///< map planes for the fine alignment (when enabled)
+  /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
+  /// points reach: a current point above it is explained by the map's surfaces.
+  /// +inf when the check is off (no point counts as explained).
+  double explained_log_density = std::numeric_limits<double>::infinity();
+};
+
+/// Appends the wall time since the previous lap to Result::timings under a stage's name.
+class StageTimer {
+ public:
+  using Clock = std::chrono::steady_clock;
+  explicit StageTimer(Result& r) : result_(r), start_(Clock::now()) {}
+  void lap(const char* stage) {
+    const auto now = Clock::now();
+    result_.timings.push_back(
+        {stage, std::chrono::duration<double, std::milli>(now - start_).count()});
+    start_ = now;
+  }
+
+ private:
+  Result& result_;
+  Clock::time_point start_;
+};
+
+/// Pre-processing and the multi-scale cut of one cloud.
+struct Simplified {
+  PreprocessResult pre;
+  MultiScaleTree tree;
+  MultiScaleTree::Cut fine;  ///< the (n_max, sigma_max) cut: where new surfaces are sought
+  MultiScaleTree::Cut cut;   ///< the scale EM is fitted at (fine, or coarser when too many)
+  WeightedPoints reps;       ///< `cut` as weighted points
+};
+
+/// Pre-processing and the multi-scale cut of `cloud`; with `result`, its point counts and
+/// (with `timer`) the stage times are recorded.
+Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer);
+
+/// Everything detect() needs of the reference, computed once. Throws std::invalid_argument
+/// when fewer than 4 usable points remain after pre-processing.
+std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
+                                                          const Cloud& reference);
+
+}  // namespace novelty_detection

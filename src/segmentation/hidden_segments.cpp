@@ -1,0 +1,270 @@
+#include "novelty_detection/segmentation/hidden_segments.h"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <tuple>
+
+#include "novelty_detection/point_grid.h"
+
+namespace novelty_detection {
+namespace {
+
+struct Plane {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d sd = Eigen::Vector3d::Zero();  ///< principal standard deviations, ascending
+};
+
+Plane fitPlane(const Cloud& cloud, const Indices& segment) {
+  Plane p;
+  for (int i : segment) p.centroid += cloud[i].getVector3fMap().cast<double>();
+  p.centroid /= static_cast<double>(segment.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i : segment) {
+    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - p.centroid;
+    cov += d * d.transpose();
+  }
+  cov /= static_cast<double>(segment.size());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  p.normal = es.eigenvectors().col(0);
+  p.sd = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return p;
+}
+
+// Test 3: reference structure around the segment, and how much of it lies on its plane. The
+// segment is queried at one point per voxel of half the ring radius (the ring is the
+// structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
+void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
+                 const SegmentationParams& params, HiddenSegmentEvidence* e) {
+  std::set<std::tuple<long long, long long, long long>> voxels;
+  std::vector<int> ids;
+  std::vector<char> seen;
+  const double radius = params.hidden.ring_factor * ctx.tau;
+  const double on_plane = params.hidden.plane_factor * ctx.tau;
+  const double voxel = std::max(0.5 * radius, 1e-3);
+  for (int i : segment) {
+    const Eigen::Vector3f p = (*ctx.current)[i].getVector3fMap();
+    const Eigen::Vector3d v = (p.cast<double>() / voxel).array().floor();
+    // The voxel itself as the key (a hashed key could collide and skip a query point).
+    if (!voxels
+             .emplace(static_cast<long long>(v.x()), static_cast<long long>(v.y()),
+                      static_cast<long long>(v.z()))
+             .second)
+      continue;
+    ids.clear();
+    ctx.structure->withinIds(p, radius, &ids);
+    for (int id : ids) {
+      if (id >= static_cast<int>(seen.size())) seen.resize(id + 1, 0);
+      if (seen[id]) continue;
+      seen[id] = 1;
+      if (ctx.gone && static_cast<std::size_t>(id) < ctx.gone->size() && (*ctx.gone)[id]) continue;
+      ++e->ring;
+      const Eigen::Vector3d q = ctx.structure->point(id).cast<double>();
+      if (std::abs(plane.normal.dot(q - plane.centroid)) <= on_plane) ++e->ring_coplanar;
+    }
+  }
+}
+
+// Test 4: the current sweep's rays around the segment's outline against its plane.
+void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
+                    const SegmentationParams& params, HiddenSegmentEvidence* e) {
+  const RangeImage& image = *ctx.current_image;
+  const int cols = image.cols();
+  const std::vector<RayCell> own_rays =
+      ctx.rays ? std::vector<RayCell>() : rayCells(*ctx.current, image);
+  const std::vector<RayCell>& rays = ctx.rays ? *ctx.rays : own_rays;
+  int col0 = -1;
+  // Columns relative to the segment's first one, in (-cols/2, cols/2]: no seam at +-pi.
+  auto unwrap = [&](int col) {
+    const int dc = ((col - col0) % cols + cols) % cols;
+    return dc > cols / 2 ? dc - cols : dc;
+  };
+  std::vector<std::pair<int, int>> cells;  // (unwrapped column, row) of the segment's points
+  std::vector<float> ranges;
+  for (int i : segment) {
+    const RayCell& ray = rays[static_cast<std::size_t>(i)];
+    if (ray.col < 0) continue;
+    if (col0 < 0) col0 = ray.col;
+    cells.emplace_back(unwrap(ray.col), ray.row);
+    ranges.push_back(ray.range);
+  }
+  if (ranges.empty()) return;
+  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
+  const double range = std::max<double>(ranges[ranges.size() / 2], 1e-3);
+  // Ring width in cells, bounded (a degenerate tau must not make the grid below huge).
+  const double k_max = std::max(1, std::min(cols, image.rows()) / 8);
+  const double k_cells =
+      std::ceil(params.hidden.outline_factor * ctx.tau / (range * std::max(image.cellRad(), 1e-9)));
+  const int k = static_cast<int>(std::isfinite(k_cells) ? std::clamp(k_cells, 1.0, k_max) : k_max);
+  // The segment's cells on a local grid padded by k, dilated by a (2k+1)^2 box (summed-area
+  // table): the ring is the dilation minus the segment's own cells.
+  int c_lo = cells[0].first, c_hi = c_lo, r_lo = cells[0].second, r_hi = r_lo;
+  for (const auto& [c, r] : cells) {
+    c_lo = std::min(c_lo, c), c_hi = std::max(c_hi, c);
+    r_lo = std::min(r_lo, r), r_hi = std::max(r_hi, r);
+  }
+  const int w = c_hi - c_lo + 1 + 2 * k, h = r_hi - r_lo + 1 + 2 * k;
+  if (static_cast<double>(w) * h > 4.0 * cols * image.rows()) return;  // no useful outline
+  std::vector<char> own(static_cast<std::size_t>(w) * h, 0);
+  for (const auto& [c, r] : cells)
+    own[static_cast<std::size_t>(r - r_lo + k) * w + (c - c_lo + k)] = 1;
+  std::vector<int> sat(static_cast<std::size_t>(w + 1) * (h + 1), 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      sat[static_cast<std::size_t>(y + 1) * (w + 1) + x + 1] =
+          own[static_cast<std::size_t>(y) * w + x] +
+          sat[static_cast<std::size_t>(y) * (w + 1) + x + 1] +
+          sat[static_cast<std::size_t>(y + 1) * (w + 1) + x] -
+          sat[static_cast<std::size_t>(y) * (w + 1) + x];
+  auto boxSum = [&](int x0, int y0, int x1, int y1) {  // inclusive, clamped
+    x0 = std::max(x0, 0), y0 = std::max(y0, 0), x1 = std::min(x1, w - 1), y1 = std::min(y1, h - 1);
+    return sat[static_cast<std::size_t>(y1 + 1) * (w + 1) + x1 + 1] -
+           sat[static_cast<std::size_t>(y0) * (w + 1) + x1 + 1] -
+           sat[static_cast<std::size_t>(y1 + 1) * (w + 1) + x0] +
+           sat[static_cast<std::size_t>(y0) * (w + 1) + x0];
+  };
+  std::vector<char> in_ring(static_cast<std::size_t>(w) * h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      in_ring[static_cast<std::size_t>(y) * w + x] =
+          !own[static_cast<std::size_t>(y) * w + x] && boxSum(x - k, y - k, x + k, y + k) > 0;
+  const Eigen::Vector3f& o = image.origin();
+  const double offset = plane.normal.dot(plane.centroid - o.cast<double>());
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const RayCell& ray = rays[i];
+    if (ray.col < 0) continue;
+    const int x = unwrap(ray.col) - c_lo + k, y = ray.row - r_lo + k;
+    if (x < 0 || y < 0 || x >= w || y >= h || !in_ring[static_cast<std::size_t>(y) * w + x])
+      continue;
+    const Eigen::Vector3d dir = ((*ctx.current)[i].getVector3fMap() - o).cast<double>() / ray.range;
+    const double nu = plane.normal.dot(dir);
+    if (std::abs(nu) < 1e-3) continue;  // the ray runs along the plane
+    const double t = offset / nu;       // range at which the ray meets the plane
+    if (t <= 0 || ray.range > t + ctx.margin_m) {
+      ++e->past;
+    } else if (ray.range >= t - ctx.margin_m) {
+      ++e->on;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image) {
+  std::vector<RayCell> out(cloud.size());
+  if (image.empty()) return out;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f d = cloud[i].getVector3fMap() - image.origin();
+    RayCell c;
+    if (d.allFinite() && image.cellOf(d, &c.col, &c.row, &c.range) && c.range > 0.f) out[i] = c;
+  }
+  return out;
+}
+
+HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                                           const std::vector<Visibility>& vis,
+                                           const SegmentationParams& params) {
+  HiddenSegmentEvidence e;
+  e.points = static_cast<int>(segment.size());
+  for (Visibility v : vis) e.occluded += v == Visibility::kOccluded;
+  if (segment.size() < 3 || !ctx.current) return e;
+  const Plane plane = fitPlane(*ctx.current, segment);
+  e.width_m = plane.sd(1);
+  e.thickness_m = plane.sd(0);
+  if (ctx.structure) measureRing(ctx, segment, plane, params, &e);
+  if (ctx.current_image && !ctx.current_image->empty())
+    measureOutline(ctx, segment, plane, params, &e);
+  return e;
+}
+
+bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
+                          const SegmentationParams& params) {
+  if (2 * e.occluded < e.points) return false;  // 1
+  if (!(e.width_m > tau)) return false;         // 2
+  if (e.thickness_m > tau) return false;        // 2
+  if (e.ring == 0) return false;                // 3
+  if (e.ring_coplanar >= params.hidden.max_coplanar * e.ring) return false;
+  const int outline = e.past + e.on;  // 4
+  return outline > 0 && e.past >= params.hidden.min_free_edge * outline;
+}
+
+std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
+                                         const std::vector<int>& hidden_owner,
+                                         const std::vector<Visibility>& hidden_vis,
+                                         int num_gaussians, const NearestNeighbourIndex& structure,
+                                         const std::vector<std::uint8_t>& gone, double tau,
+                                         const Params& params, const RangeImage* current_image) {
+  std::vector<Indices> out;
+  const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
+  if (hidden.empty() || !sensorOriginKnown(origin)) return out;
+  const std::vector<Indices> segments =
+      segmentNovelPoints(current, hidden, hidden_owner, num_gaussians, params.segmentation);
+  if (segments.empty()) return out;
+  RangeImage own;  // the current sweep from its own origin (test 4)
+  if (!current_image) own.build(current, {}, origin, rangeImageConfig(params.visibility));
+  const RangeImage& image = current_image ? *current_image : own;
+  HiddenSegmentContext ctx;
+  ctx.current = &current;
+  ctx.structure = &structure;
+  ctx.gone = &gone;
+  ctx.current_image = &image;
+  const std::vector<RayCell> rays = rayCells(current, image);
+  ctx.rays = &rays;
+  ctx.tau = tau;
+  ctx.margin_m = params.visibility.margin_factor * tau;
+  for (const Indices& seg : segments) {
+    std::vector<Visibility> vis;
+    vis.reserve(seg.size());
+    for (int i : seg)
+      vis.push_back(hidden_vis[std::lower_bound(hidden.begin(), hidden.end(), i) - hidden.begin()]);
+    const HiddenSegmentEvidence e = measureHiddenSegment(ctx, seg, vis, params.segmentation);
+    if (hiddenSegmentIsNovel(e, tau, params.segmentation)) out.push_back(seg);
+  }
+  return out;
+}
+
+void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
+                    double link_radius_m) {
+  if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
+      !std::isfinite(link_radius_m)) {
+    return;
+  }
+  std::vector<char> taken_by_segment(current.size(), 0);
+  for (const Indices& s : *segments)
+    for (int i : s) taken_by_segment[static_cast<std::size_t>(i)] = 1;
+  Indices free;
+  Points3d pts;
+  for (int i : hidden) {
+    if (taken_by_segment[static_cast<std::size_t>(i)]) continue;
+    free.push_back(i);
+    pts.push_back(current[i].getVector3fMap().cast<double>());
+  }
+  if (free.empty()) return;
+  const PointGrid grid(pts, link_radius_m);
+  std::vector<char> used(free.size(), 0);
+  for (Indices& seg : *segments) {
+    // Breadth-first from the segment's points through the free hidden candidates.
+    std::vector<Eigen::Vector3d> frontier;
+    frontier.reserve(seg.size());
+    for (int i : seg) frontier.push_back(current[i].getVector3fMap().cast<double>());
+    Indices added;
+    while (!frontier.empty()) {
+      const Eigen::Vector3d p = frontier.back();
+      frontier.pop_back();
+      grid.forNeighbours(p, link_radius_m, [&](int k) {
+        if (used[static_cast<std::size_t>(k)]) return;
+        used[static_cast<std::size_t>(k)] = 1;
+        added.push_back(free[static_cast<std::size_t>(k)]);
+        frontier.push_back(pts[static_cast<std::size_t>(k)]);
+      });
+    }
+    if (added.empty()) continue;
+    seg.insert(seg.end(), added.begin(), added.end());
+    std::sort(seg.begin(), seg.end());
+  }
+}
+
+}  // namespace novelty_detection

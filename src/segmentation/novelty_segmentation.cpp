@@ -1,0 +1,209 @@
+#include "novelty_detection/segmentation/novelty_segmentation.h"
+
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace novelty_detection {
+namespace {
+
+double median(std::vector<double>& v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+struct NearestNeighbourIndex::Impl {
+  Cloud::Ptr points{new Cloud};
+  pcl::KdTreeFLANN<PointT> tree;
+};
+
+NearestNeighbourIndex::NearestNeighbourIndex() : impl_(std::make_unique<Impl>()) {}
+NearestNeighbourIndex::~NearestNeighbourIndex() = default;
+NearestNeighbourIndex::NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept = default;
+NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&) noexcept = default;
+
+void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
+  impl_ = std::make_unique<Impl>();
+  auto add = [&](const PointT& p) {
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) impl_->points->push_back(p);
+  };
+  if (indices.empty()) {
+    for (const auto& p : cloud) add(p);
+  } else {
+    for (int i : indices) add(cloud[i]);
+  }
+  if (!impl_->points->empty()) impl_->tree.setInputCloud(impl_->points);
+}
+
+bool NearestNeighbourIndex::empty() const { return impl_->points->empty(); }
+
+double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
+  if (empty()) return std::numeric_limits<double>::infinity();
+  PointT q(p.x(), p.y(), p.z());
+  std::vector<int> idx(1);
+  std::vector<float> d2(1);
+  if (impl_->tree.nearestKSearch(q, 1, idx, d2) < 1) return std::numeric_limits<double>::infinity();
+  return std::sqrt(static_cast<double>(d2[0]));
+}
+
+void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
+                                      std::vector<int>* out) const {
+  if (empty() || !(radius_m > 0)) return;
+  PointT q(p.x(), p.y(), p.z());
+  std::vector<int> idx;
+  std::vector<float> d2;
+  if (impl_->tree.radiusSearch(q, radius_m, idx, d2) > 0)
+    out->insert(out->end(), idx.begin(), idx.end());
+}
+
+Eigen::Vector3f NearestNeighbourIndex::point(int id) const {
+  const PointT& q = (*impl_->points)[id];
+  return Eigen::Vector3f(q.x, q.y, q.z);
+}
+
+double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
+  distances.erase(std::remove_if(distances.begin(), distances.end(),
+                                 [](double d) { return !std::isfinite(d); }),
+                  distances.end());
+  if (distances.empty()) return floor_m;
+  const double med = median(distances);
+  for (double& d : distances) d = std::abs(d - med);
+  const double mad = median(distances);
+  return std::max(floor_m, med + factor * 1.4826 * mad);
+}
+
+std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
+                                    int min_points, double* link_radius_m) {
+  std::vector<Indices> out;
+  if (link_radius_m) *link_radius_m = 0.0;
+  if (indices.empty()) return out;
+  Cloud::Ptr pts(new Cloud);
+  pts->reserve(indices.size());
+  for (int i : indices) pts->push_back(cloud[i]);
+  pcl::KdTreeFLANN<PointT> tree;
+  tree.setInputCloud(pts);
+  const int n = static_cast<int>(pts->size());
+  // Spacing: median distance to the 4th nearest neighbour among the kept points (a sample).
+  const int k = std::min(5, n);
+  std::vector<int> nn;
+  std::vector<float> d2;
+  std::vector<double> spacing;
+  const int stride = std::max(1, n / 2000);
+  for (int i = 0; i < n && k > 1; i += stride) {
+    if (tree.nearestKSearch((*pts)[i], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
+  }
+  const double radius = link_factor * (spacing.empty() ? 0.0 : median(spacing));
+  if (link_radius_m) *link_radius_m = radius;
+  std::vector<int> comp(n, -1);
+  int count = 0;
+  std::vector<int> stack;
+  for (int seed = 0; seed < n; ++seed) {
+    if (comp[seed] >= 0) continue;
+    Indices members;
+    comp[seed] = count;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+      const int a = stack.back();
+      stack.pop_back();
+      members.push_back(indices[a]);
+      if (radius > 0 && tree.radiusSearch((*pts)[a], radius, nn, d2) > 0) {
+        for (int b : nn) {
+          if (comp[b] < 0) {
+            comp[b] = count;
+            stack.push_back(b);
+          }
+        }
+      }
+    }
+    ++count;
+    if (static_cast<int>(members.size()) >= min_points) {
+      std::sort(members.begin(), members.end());
+      out.push_back(std::move(members));
+    }
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  return out;
+}
+
+std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
+                                        const std::vector<int>& owner, int num_gaussians,
+                                        const SegmentationParams& params, double* link_radius_m) {
+  double link_radius = 0.0;
+  const std::vector<Indices> pieces =
+      linkComponents(cloud, points, params.link_factor, 1, &link_radius);
+  if (link_radius_m) *link_radius_m = link_radius;
+  const std::size_t np = pieces.size();
+  std::vector<int> dominant(np), parent(np);
+  std::vector<Eigen::Vector3f> lo(np), hi(np);
+  for (std::size_t a = 0; a < np; ++a) {
+    std::vector<int> votes(static_cast<std::size_t>(std::max(0, num_gaussians)), 0);
+    lo[a].setConstant(std::numeric_limits<float>::infinity());
+    hi[a] = -lo[a];
+    for (int i : pieces[a]) {
+      const auto it = std::lower_bound(points.begin(), points.end(), i);
+      ++votes[owner[it - points.begin()]];
+      lo[a] = lo[a].cwiseMin(cloud[i].getVector3fMap());
+      hi[a] = hi[a].cwiseMax(cloud[i].getVector3fMap());
+    }
+    dominant[a] = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+    parent[a] = static_cast<int>(a);
+  }
+  auto find = [&parent](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
+  const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
+  for (std::size_t a = 0; a < np; ++a) {
+    for (std::size_t b = a + 1; b < np; ++b) {
+      const Eigen::Vector3f sep =
+          (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
+      if (sep.norm() > gap) continue;
+      // Same Gaussian, footprints close: one object seen through the gaps between lines.
+      // Any Gaussians, footprints overlapping, one piece above the other: one object cut
+      // by a gap between two tilt lines (a person's trunk and legs). Objects side by side
+      // share heights, so this never joins them.
+      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
+      const bool stacked = sep.head<2>().isZero() && sep.z() > 0.f;
+      if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+    }
+  }
+  std::vector<Indices> merged(np);
+  for (std::size_t a = 0; a < np; ++a) {
+    Indices& m = merged[find(static_cast<int>(a))];
+    m.insert(m.end(), pieces[a].begin(), pieces[a].end());
+  }
+  std::vector<Indices> comps;
+  for (Indices& c : merged) {
+    if (c.empty() || static_cast<int>(c.size()) < params.min_segment_points) continue;
+    std::sort(c.begin(), c.end());
+    comps.push_back(std::move(c));
+  }
+  std::stable_sort(comps.begin(), comps.end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  return comps;
+}
+
+void labelDuplicates(const Indices& duplicates, const Indices& duplicate_of,
+                     std::vector<int>& labels, std::vector<Segment>& segments) {
+  bool any = false;
+  for (std::size_t k = 0; k < duplicates.size(); ++k) {
+    const int id = labels.at(duplicate_of[k]);
+    labels.at(duplicates[k]) = id;
+    if (id <= 0) continue;
+    for (Segment& seg : segments) {
+      if (seg.id == id) seg.indices.push_back(duplicates[k]), any = true;
+    }
+  }
+  if (any)
+    for (Segment& seg : segments) std::sort(seg.indices.begin(), seg.indices.end());
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,114 @@
+#include "novelty_detection/shape/shape_retrieval.h"
+
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include "common/parallel.h"
+#include "novelty_detection/point_grid.h"
+#include "novelty_detection/shape/split_merge.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_fit.h"
+
+namespace novelty_detection {
+
+ShapeRetrieval::ShapeRetrieval(const SuperquadricParams& params) : params_(params) {
+  params_.validate();
+}
+
+std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Points3d& coarse,
+                                                  int segment_id) const {
+  if (!params_.enabled) return {};
+  if (fine.empty()) {
+    throw std::invalid_argument("ShapeRetrieval::recover: segment " + std::to_string(segment_id) +
+                                " has no points");
+  }
+  const SuperquadricFitter fitter(params_);
+  Indices sm_index;
+  const Points3d sm_points = subsample(fine, params_.split_max_points, &sm_index);
+  const Points3d sub = subsample(sm_points, params_.max_fit_points);
+
+  // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
+  // points, and a fit on the finer points from the moment initialisation; the lower mean
+  // radial distance on the finer points wins.
+  // The two are independent: in parallel.
+  bool coarse_usable = coarse.size() >= 11;
+  for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
+  FitResult fits[2];
+  detail::parallelFor(coarse_usable ? 2 : 1, threads_, [&](int k) {
+    // Only the mean radial distance (the choice) and the model are used here.
+    fits[k] = k == 0 ? fitter.fit(sub, -1, true, FitMeasures::kRadial)
+                     : fitter.refine(sub,
+                                     fitter
+                                         .fit(subsample(coarse, params_.max_fit_points), -1, true,
+                                              FitMeasures::kNone)
+                                         .sq,
+                                     -1, true, FitMeasures::kRadial);
+  });
+  FitResult best = fits[0];
+  if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
+
+  // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
+  SplitMerge split_merge(params_);
+  split_merge.setThreads(threads_);
+  std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
+  if (parts.size() == 1) parts.front().fit = best;
+
+  // Every fine point goes to its part: points left out by the subsampling take the part of
+  // their nearest kept neighbour (or, if none is near, of the nearest surface).
+  std::vector<int> sm_label(sm_points.size(), 0);
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    for (int i : parts[k].indices) sm_label[static_cast<std::size_t>(i)] = static_cast<int>(k);
+  }
+  std::vector<int> label(fine.size(), -1);
+  for (std::size_t i = 0; i < sm_index.size(); ++i) {
+    label[static_cast<std::size_t>(sm_index[i])] = sm_label[i];
+  }
+  std::unique_ptr<PointGrid> grid;
+  const double spacing = medianSpacing(sm_points);
+  if (parts.size() > 1 && fine.size() > sm_points.size() && spacing > 0.0) {
+    grid = std::make_unique<PointGrid>(sm_points, params_.neighbour_distance_factor * spacing);
+  }
+  std::vector<Superquadric> out(parts.size());
+  std::vector<Points3d> part_points(parts.size());
+  for (std::size_t i = 0; i < fine.size(); ++i) {
+    int k = label[i];
+    if (k < 0 && parts.size() == 1) k = 0;
+    if (k < 0 && grid) {
+      const int j = grid->nearest(fine[i]);
+      if (j >= 0) k = sm_label[static_cast<std::size_t>(j)];
+    }
+    if (k < 0) {
+      double best_d = std::numeric_limits<double>::infinity();
+      for (std::size_t m = 0; m < parts.size(); ++m) {
+        const double d = surfaceDistance(parts[m].fit.sq, fine[i]);
+        if (d < best_d) {
+          best_d = d;
+          k = static_cast<int>(m);
+        }
+      }
+    }
+    out[k].indices.push_back(static_cast<int>(i));
+    part_points[k].push_back(fine[i]);
+  }
+  // Parts were fitted on few points while splitting and merging: polish each on its own
+  // (subsampled) fine points, the parts in parallel.
+  if (parts.size() > 1) {
+    detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
+      if (part_points[k].empty()) return;
+      parts[k].fit = fitter.refine(subsample(part_points[k], params_.max_fit_points),
+                                   parts[k].fit.sq, -1, true, FitMeasures::kNone);
+    });
+  }
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    Indices indices = std::move(out[k].indices);
+    out[k] = parts[k].fit.sq;
+    out[k].indices = std::move(indices);
+    out[k].segment = segment_id;
+    out[k].points = static_cast<int>(out[k].indices.size());
+    out[k].residual = meanSquaredResidual(out[k], part_points[k]);
+  }
+  return out;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,141 @@
+#include "novelty_detection/shape/superquadric_cost.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "shape/superquadric_kernel.h"
+
+namespace novelty_detection {
+namespace {
+
+using detail::RotationTerms;
+using detail::rotationTerms;
+
+/// log(e^a + e^b) and the softmax weights e^a / (e^a + e^b), e^b / (e^a + e^b), with one
+/// exp and one log.
+inline double logSumExpWeights(double a, double b, double* wa, double* wb) {
+  const bool a_big = a > b;
+  const double u = std::exp(a_big ? b - a : a - b);
+  const double s = 1.0 + u;
+  *wa = (a_big ? 1.0 : u) / s;
+  *wb = (a_big ? u : 1.0) / s;
+  return (a_big ? a : b) + std::log(s);
+}
+
+/// Residual of one point (start-frame coordinates q) and, when ja is not null, its
+/// derivatives: ja[3] (sizes), je[2] (exponents), jw[3] (rotation), jt[3] (translation).
+inline double pointResidual(const Eigen::Vector3d& q, const double* a, double e1, double e2,
+                            const double* t, const RotationTerms& rt, double* ja, double* je,
+                            double* jw, double* jt) {
+  const Eigen::Vector3d& w = rt.w;
+  // p = Exp(w)^T (q - t) = d - sa (w x d) + sb w x (w x d).
+  const Eigen::Vector3d d(q.x() - t[0], q.y() - t[1], q.z() - t[2]);
+  const Eigen::Vector3d wxd = w.cross(d);
+  const Eigen::Vector3d p = d - rt.sa * wxd + rt.sb * w.cross(wxd);
+
+  // Eq. 2 in log space with guarded (squared, clamped) coordinates; see
+  // logInsideOutsideCanonical().
+  const double sx = p.x() * p.x() / (a[0] * a[0]), rx = sx + kSqTinySquared;
+  const double sy = p.y() * p.y() / (a[1] * a[1]), ry = sy + kSqTinySquared;
+  const double sz = p.z() * p.z() / (a[2] * a[2]), rz = sz + kSqTinySquared;
+  const double lx = std::log(rx) / e2, ly = std::log(ry) / e2;
+  const double lb = std::log(rz) / e1;
+  double wxw, wyw, wa, wb;  // softmax weights of the two log-sum-exps
+  const double lxy = logSumExpWeights(lx, ly, &wxw, &wyw);
+  const double la = e2 / e1 * lxy;
+  const double l = logSumExpWeights(la, lb, &wa, &wb);
+  const double big_s = std::sqrt(a[0] * a[1] * a[2]);
+  const double big_e = std::exp(e1 * l);
+  const double residual = big_s * (big_e - 1.0);
+  if (!ja && !je && !jw && !jt) return residual;
+
+  const double k = big_s * big_e * e1;  // dr/dL
+  // dL/dp: d lx / dx = (2 / e2) (x / a1^2) / rx, weighted through the two log-sum-exps.
+  const Eigen::Vector3d grad(wa * wxw * (2.0 / e1) * (p.x() / (a[0] * a[0])) / rx,
+                             wa * wyw * (2.0 / e1) * (p.y() / (a[1] * a[1])) / ry,
+                             wb * (2.0 / e1) * (p.z() / (a[2] * a[2])) / rz);
+  const Eigen::Vector3d dr_dp = k * grad;
+  if (ja) {
+    const double half = 0.5 * residual;
+    ja[0] = half / a[0] - k * wa * wxw * (2.0 / (e1 * a[0])) * sx / rx;
+    ja[1] = half / a[1] - k * wa * wyw * (2.0 / (e1 * a[1])) * sy / ry;
+    ja[2] = half / a[2] - k * wb * (2.0 / (e1 * a[2])) * sz / rz;
+  }
+  if (je) {
+    je[0] = big_s * big_e * (l - wa * la - wb * lb);
+    je[1] = big_s * big_e * wa * (lxy - wxw * lx - wyw * ly);
+  }
+  if (jw) {
+    // dr/dw = dr_dp^T [p]x J_r(w); as a row vector g^T J_r = (J_r^T g)^T with
+    // J_r^T g = g + c1 (w x g) + c2 w x (w x g), and (dr_dp^T [p]x)^T = dr_dp x p.
+    const Eigen::Vector3d h = dr_dp.cross(p);
+    const Eigen::Vector3d wxh = w.cross(h);
+    const Eigen::Vector3d g = h + rt.c1 * wxh + rt.c2 * w.cross(wxh);
+    for (int i = 0; i < 3; ++i) jw[i] = g[i];
+  }
+  if (jt) {
+    // dr/dt = -(Exp(w) dr_dp)^T; Exp(w) v = v + sa (w x v) + sb w x (w x v).
+    const Eigen::Vector3d wxv = w.cross(dr_dp);
+    const Eigen::Vector3d g = -(dr_dp + rt.sa * wxv + rt.sb * w.cross(wxv));
+    for (int i = 0; i < 3; ++i) jt[i] = g[i];
+  }
+  return residual;
+}
+
+}  // namespace
+
+bool SuperquadricAnalyticResidual::Evaluate(double const* const* parameters, double* residuals,
+                                            double** jacobians) const {
+  const RotationTerms rt = rotationTerms(parameters[2]);
+  auto block = [jacobians](int b) { return jacobians ? jacobians[b] : nullptr; };
+  residuals[0] = pointResidual(q_, parameters[0], parameters[1][0], parameters[1][1], parameters[3],
+                               rt, block(0), block(1), block(2), block(3));
+  return true;
+}
+
+static_assert(SuperquadricBatchResidual::kChunk == detail::kKernelChunk, "chunk size");
+
+SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q)
+    : q_(3, static_cast<Eigen::Index>(q.size())),
+      terms_(static_cast<Eigen::Index>(q.size()), static_cast<Eigen::Index>(detail::kTerms)) {
+  for (std::size_t i = 0; i < q.size(); ++i) q_.col(static_cast<Eigen::Index>(i)) = q[i];
+  set_num_residuals(static_cast<int>(q.size()));
+  *mutable_parameter_block_sizes() = {3, 2, 3, 3};
+}
+
+bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double* residuals,
+                                         double** jacobians) const {
+  // Ceres evaluates the cost at a candidate step and, when it accepts the step, the Jacobian
+  // at the same parameters: the terms (the logs and exps, most of the cost) are then reused.
+  constexpr int kSizes[4] = {3, 2, 3, 3};
+  bool same = cached_;
+  for (int b = 0, m = 0; b < 4; ++b) {
+    for (int k = 0; k < kSizes[b]; ++k, ++m) same = same && parameters[b][k] == last_[m];
+  }
+  const Eigen::Index n = q_.cols();
+  if (!same) {
+    for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
+      detail::superquadricTerms(parameters, q_.data(), terms_.data(), n, begin,
+                                std::min(kChunk, n - begin));
+    }
+    for (int b = 0, m = 0; b < 4; ++b) {
+      for (int k = 0; k < kSizes[b]; ++k, ++m) last_[m] = parameters[b][k];
+    }
+    cached_ = true;
+  }
+  Eigen::Map<Eigen::VectorXd>(residuals, n) = terms_.col(detail::kResidual);
+  if (!jacobians) return true;
+  for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
+    double* chunk[4] = {nullptr, nullptr, nullptr, nullptr};
+    for (int b = 0; b < 4; ++b) {
+      if (jacobians[b]) chunk[b] = jacobians[b] + kSizes[b] * begin;
+    }
+    detail::superquadricJacobian(parameters, terms_.data(), n, begin, std::min(kChunk, n - begin),
+                                 chunk);
+  }
+  return true;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,223 @@
+// Vectorised kernels of SuperquadricBatchResidual (superquadric_cost.h): eq. 3's residual
+// and its Jacobian over chunks of points. This file may be compiled for wider SIMD than the
+// rest of the library (CMake option NOVELTY_AVX2), so its interface is raw pointers and it
+// allocates nothing on the heap: no Eigen object crosses between code built for different
+// alignments.
+#include "shape/superquadric_kernel.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "novelty_detection/shape/superquadric.h"
+
+namespace novelty_detection {
+namespace detail {
+
+RotationTerms rotationTerms(const double* w_ptr) {
+  RotationTerms r;
+  r.w = Eigen::Vector3d(w_ptr[0], w_ptr[1], w_ptr[2]);
+  const double theta2 = r.w.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  if (theta < 1e-4) {  // series near zero
+    r.sa = 1.0 - theta2 / 6.0;
+    r.sb = 0.5 - theta2 / 24.0;
+    r.c1 = 0.5 - theta2 / 24.0;
+    r.c2 = 1.0 / 6.0 - theta2 / 120.0;
+  } else {
+    const double s = std::sin(theta), c = std::cos(theta);
+    r.sa = s / theta;
+    r.sb = (1.0 - c) / theta2;
+    r.c1 = (1.0 - c) / theta2;
+    r.c2 = (theta - s) / (theta2 * theta);
+  }
+  return r;
+}
+
+// Chunks of at most kKernelChunk points: the temporaries live on the stack. (Heap arrays over all
+// points, freed and reallocated at every evaluation, made glibc return memory to the kernel
+// each time past its trim threshold: on a loaded machine the unmapping and page faults took
+// as much time as the arithmetic.)
+using ChunkArray = Eigen::Array<double, Eigen::Dynamic, 1, Eigen::ColMajor, kKernelChunk, 1>;
+
+void superquadricTerms(double const* const* parameters, const double* q_data, double* terms_data,
+                       Eigen::Index rows, Eigen::Index begin, Eigen::Index n) {
+  const Eigen::Map<const Eigen::Matrix3Xd> q_(q_data, 3, rows);
+  Eigen::Map<Eigen::MatrixXd> terms_(terms_data, rows, kTerms);
+  // pointResidual() for the chunk's points at once, as Eigen array expressions: the logs and
+  // exps then run on SIMD packets.
+  using A = ChunkArray;
+  static_assert(A::MaxRowsAtCompileTime == kKernelChunk, "chunk size");
+  const RotationTerms rt = rotationTerms(parameters[2]);
+  const double* a = parameters[0];
+  const double e1 = parameters[1][0], e2 = parameters[1][1];
+  const double* t = parameters[3];
+  const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
+  // p = Exp(w)^T (q - t) = d - sa (w x d) + sb w x (w x d).
+  const A dx = q_.row(0).segment(begin, n).transpose().array() - t[0];
+  const A dy = q_.row(1).segment(begin, n).transpose().array() - t[1];
+  const A dz = q_.row(2).segment(begin, n).transpose().array() - t[2];
+  const A cx = wy * dz - wz * dy, cy = wz * dx - wx * dz, cz = wx * dy - wy * dx;
+  const A px = dx - rt.sa * cx + rt.sb * (wy * cz - wz * cy);
+  const A py = dy - rt.sa * cy + rt.sb * (wz * cx - wx * cz);
+  const A pz = dz - rt.sa * cz + rt.sb * (wx * cy - wy * cx);
+  const A sx = px.square() / (a[0] * a[0]), sy = py.square() / (a[1] * a[1]);
+  const A sz = pz.square() / (a[2] * a[2]);
+  const A rx = sx + kSqTinySquared, ry = sy + kSqTinySquared, rz = sz + kSqTinySquared;
+  const A lx = rx.log() / e2, ly = ry.log() / e2, lb = rz.log() / e1;
+  // Two log-sum-exps with their softmax weights (logSumExpWeights()).
+  const A u1 = (-(lx - ly).abs()).exp(), s1 = 1.0 + u1;
+  const A lxy = lx.max(ly) + s1.log();
+  const A la = (e2 / e1) * lxy;
+  const A u2 = (-(la - lb).abs()).exp(), s2 = 1.0 + u2;
+  const A l = la.max(lb) + s2.log();
+  const A big_e = (e1 * l).exp();
+  auto term = [&](KernelTerm k) { return terms_.col(k).segment(begin, n).array(); };
+  term(kPx) = px;
+  term(kPy) = py;
+  term(kPz) = pz;
+  term(kLx) = lx;
+  term(kLy) = ly;
+  term(kLb) = lb;
+  term(kLxy) = lxy;
+  term(kLa) = la;
+  term(kL) = l;
+  term(kWxw) = (lx > ly).select(A::Ones(n), u1) / s1;
+  term(kWyw) = (lx > ly).select(u1, A::Ones(n)) / s1;
+  term(kWa) = (la > lb).select(A::Ones(n), u2) / s2;
+  term(kWb) = (la > lb).select(u2, A::Ones(n)) / s2;
+  term(kBigE) = big_e;
+  term(kResidual) = std::sqrt(a[0] * a[1] * a[2]) * (big_e - 1.0);
+}
+
+void superquadricJacobian(double const* const* parameters, const double* terms_data,
+                          Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
+                          double** jacobians) {
+  const Eigen::Map<const Eigen::MatrixXd> terms_(terms_data, rows, kTerms);
+  using A = ChunkArray;
+  const RotationTerms rt = rotationTerms(parameters[2]);
+  const double* a = parameters[0];
+  const double e1 = parameters[1][0];
+  const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
+  auto term = [&](KernelTerm k) { return terms_.col(k).segment(begin, n).array(); };
+  const A px = term(kPx), py = term(kPy), pz = term(kPz);
+  const A sx = px.square() / (a[0] * a[0]), sy = py.square() / (a[1] * a[1]);
+  const A sz = pz.square() / (a[2] * a[2]);
+  const A rx = sx + kSqTinySquared, ry = sy + kSqTinySquared, rz = sz + kSqTinySquared;
+  const A wxw = term(kWxw), wyw = term(kWyw), wa = term(kWa), wb = term(kWb);
+  const A big_e = term(kBigE);
+  const double big_s = std::sqrt(a[0] * a[1] * a[2]);
+  const A k = big_s * e1 * big_e;  // dr/dL
+  const A gx = k * wa * wxw * (2.0 / e1) * (px / (a[0] * a[0])) / rx;
+  const A gy = k * wa * wyw * (2.0 / e1) * (py / (a[1] * a[1])) / ry;
+  const A gz = k * wb * (2.0 / e1) * (pz / (a[2] * a[2])) / rz;
+  // Ceres' Jacobian blocks are row-major: row i of block b starts at i * size(b).
+  if (jacobians[0]) {
+    const A half = 0.5 * big_s * (big_e - 1.0);
+    const A ja0 = half / a[0] - k * wa * wxw * (2.0 / (e1 * a[0])) * sx / rx;
+    const A ja1 = half / a[1] - k * wa * wyw * (2.0 / (e1 * a[1])) * sy / ry;
+    const A ja2 = half / a[2] - k * wb * (2.0 / (e1 * a[2])) * sz / rz;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jacobians[0][3 * i] = ja0[i];
+      jacobians[0][3 * i + 1] = ja1[i];
+      jacobians[0][3 * i + 2] = ja2[i];
+    }
+  }
+  if (jacobians[1]) {
+    const A se = big_s * big_e;
+    const A je0 = se * (term(kL) - wa * term(kLa) - wb * term(kLb));
+    const A je1 = se * wa * (term(kLxy) - wxw * term(kLx) - wyw * term(kLy));
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jacobians[1][2 * i] = je0[i];
+      jacobians[1][2 * i + 1] = je1[i];
+    }
+  }
+  if (jacobians[2]) {
+    // h = dr_dp x p; J_r^T h = h + c1 (w x h) + c2 w x (w x h).
+    const A hx = gy * pz - gz * py, hy = gz * px - gx * pz, hz = gx * py - gy * px;
+    const A mx = wy * hz - wz * hy, my = wz * hx - wx * hz, mz = wx * hy - wy * hx;
+    const A jx = hx + rt.c1 * mx + rt.c2 * (wy * mz - wz * my);
+    const A jy = hy + rt.c1 * my + rt.c2 * (wz * mx - wx * mz);
+    const A jz = hz + rt.c1 * mz + rt.c2 * (wx * my - wy * mx);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jacobians[2][3 * i] = jx[i];
+      jacobians[2][3 * i + 1] = jy[i];
+      jacobians[2][3 * i + 2] = jz[i];
+    }
+  }
+  if (jacobians[3]) {
+    // -(Exp(w) dr_dp) = -(v + sa (w x v) + sb w x (w x v)).
+    const A vx = wy * gz - wz * gy, vy = wz * gx - wx * gz, vz = wx * gy - wy * gx;
+    const A jx = -(gx + rt.sa * vx + rt.sb * (wy * vz - wz * vy));
+    const A jy = -(gy + rt.sa * vy + rt.sb * (wz * vx - wx * vz));
+    const A jz = -(gz + rt.sa * vz + rt.sb * (wx * vy - wy * vx));
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jacobians[3][3 * i] = jx[i];
+      jacobians[3][3 * i + 1] = jy[i];
+      jacobians[3][3 * i + 2] = jz[i];
+    }
+  }
+}
+
+void superquadricDistances(const double* shape, const double* rotation, const double* centre,
+                           const double* points, const int* index, Eigen::Index n, bool surface,
+                           double* out) {
+  using A = ChunkArray;
+  constexpr double kMaxLog = 690.0;  // exp() of more overflows (as in superquadric.cpp)
+  const double a0 = shape[0], a1 = shape[1], a2 = shape[2], e1 = shape[3], e2 = shape[4];
+  const double a_min = std::min(a0, std::min(a1, a2));
+  A qx(kKernelChunk), qy(kKernelChunk), qz(kKernelChunk);
+  for (Eigen::Index begin = 0; begin < n; begin += kKernelChunk) {
+    const Eigen::Index m = std::min(kKernelChunk, n - begin);
+    qx.resize(m);
+    qy.resize(m);
+    qz.resize(m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const double* p = points + 3 * (index ? index[begin + i] : begin + i);
+      const double dx = p[0] - centre[0], dy = p[1] - centre[1], dz = p[2] - centre[2];
+      // q = R^T (p - c): the columns of R dotted with d.
+      qx[i] = rotation[0] * dx + rotation[1] * dy + rotation[2] * dz;
+      qy[i] = rotation[3] * dx + rotation[4] * dy + rotation[5] * dz;
+      qz[i] = rotation[6] * dx + rotation[7] * dy + rotation[8] * dz;
+    }
+    // log F (logInsideOutsideCanonical()).
+    const A lx = (qx.square() / (a0 * a0) + kSqTinySquared).log() / e2;
+    const A ly = (qy.square() / (a1 * a1) + kSqTinySquared).log() / e2;
+    const A lz = (qz.square() / (a2 * a2) + kSqTinySquared).log() / e1;
+    const A lxy = lx.max(ly) + (1.0 + (-(lx - ly).abs()).exp()).log();
+    const A la = (e2 / e1) * lxy;
+    const A l = la.max(lz) + (1.0 + (-(la - lz).abs()).exp()).log();
+    // Results are evaluated into chunk arrays (aligned storage) and then copied: evaluated
+    // straight into `out`, Eigen would peel a few leading elements to reach alignment and
+    // compute them with scalar exp/log, so the last bits of a distance would depend on the
+    // address of the caller's buffer (and so on which thread allocated it).
+    Eigen::Map<Eigen::ArrayXd> result(out + begin, m);
+    auto radial = [&]() -> A {
+      // | |q| - r_s |, r_s = |q| F^(-e1/2); the smallest half size at the centre.
+      const A norm = (qx.square() + qy.square() + qz.square()).sqrt();
+      const A r = (norm - (norm.log() - 0.5 * e1 * l).min(kMaxLog).exp()).abs();
+      return (norm < 1e-12 * a_min).select(A::Constant(m, a_min), r);
+    };
+    if (!surface) {
+      result = radial();
+      continue;
+    }
+    // |f| / |grad f|, f = F^(e1/2) - 1, from the gradient of log F.
+    const A wa = (la - l).exp(), wb = (lz - l).exp();
+    const A wx = (lx - lxy).exp(), wy = (ly - lxy).exp();
+    const A gx = wa * wx * 2.0 / e1 * qx / (qx.square() + kSqTinySquared * a0 * a0);
+    const A gy = wa * wy * 2.0 / e1 * qy / (qy.square() + kSqTinySquared * a1 * a1);
+    const A gz = wb * 2.0 / e1 * qz / (qz.square() + kSqTinySquared * a2 * a2);
+    const A g = (gx.square() + gy.square() + gz.square()).sqrt();
+    A d = (1.0 - (-0.5 * e1 * l).min(kMaxLog).exp()).abs() / (0.5 * e1 * g);
+    if (!d.isFinite().all()) {
+      const A r = radial();
+      for (Eigen::Index i = 0; i < m; ++i) {
+        if (!std::isfinite(d[i])) d[i] = r[i];
+      }
+    }
+    result = d;
+  }
+}
+
+}  // namespace detail
+}  // namespace novelty_detection

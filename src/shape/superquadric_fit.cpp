@@ -1,0 +1,248 @@
+#include "novelty_detection/shape/superquadric_fit.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_cost.h"
+
+namespace novelty_detection {
+namespace {
+
+void requirePoints(const Points3d& points, const char* who) {
+  if (points.empty()) throw std::invalid_argument(std::string(who) + ": no points to fit");
+  for (const auto& p : points) {
+    if (!p.allFinite()) {
+      throw std::invalid_argument(std::string(who) + ": point set contains a non-finite point");
+    }
+  }
+}
+
+}  // namespace
+
+PrincipalFrame principalFrame(const Points3d& points) {
+  requirePoints(points, "principalFrame");
+  PrincipalFrame f;
+  for (const auto& p : points) f.centroid += p;
+  f.centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points) {
+    const Eigen::Vector3d d = p - f.centroid;
+    cov.noalias() += d * d.transpose();
+  }
+  cov /= static_cast<double>(points.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  f.eigenvalues = eig.eigenvalues().cwiseMax(0.0);
+  f.axes = eig.eigenvectors();
+  if (f.axes.determinant() < 0.0) f.axes.col(0) = -f.axes.col(0);
+  f.min = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
+  f.max = -f.min;
+  for (const auto& p : points) {
+    const Eigen::Vector3d q = f.axes.transpose() * (p - f.centroid);
+    f.min = f.min.cwiseMin(q);
+    f.max = f.max.cwiseMax(q);
+  }
+  return f;
+}
+
+Points3d subsample(const Points3d& points, int max_points, Indices* indices) {
+  const std::size_t n = points.size();
+  const std::size_t cap = static_cast<std::size_t>(std::max(1, max_points));
+  Points3d out;
+  if (indices) indices->clear();
+  if (n <= cap) {
+    out = points;
+    if (indices) {
+      indices->resize(n);
+      for (std::size_t i = 0; i < n; ++i) (*indices)[i] = static_cast<int>(i);
+    }
+    return out;
+  }
+  out.reserve(cap);
+  // Evenly spread positions i * n / cap: exactly `cap` points, deterministic.
+  for (std::size_t k = 0; k < cap; ++k) {
+    const std::size_t i = k * n / cap;
+    out.push_back(points[i]);
+    if (indices) indices->push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+SuperquadricFitter::SuperquadricFitter(const SuperquadricParams& params) : params_(params) {
+  params_.validate();
+}
+
+std::vector<Superquadric> SuperquadricFitter::initialGuesses(const Points3d& points) const {
+  return initialGuesses(principalFrame(points));
+}
+
+std::vector<Superquadric> SuperquadricFitter::initialGuesses(const PrincipalFrame& f) const {
+  const double h = std::max(f.halfExtent(), params_.min_size_m);
+  const double lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
+  std::vector<Superquadric> guesses;
+  for (int variant = 0; variant < 2; ++variant) {
+    Eigen::Vector3d sizes, centre_local;
+    if (variant == 0) {
+      sizes = (3.0 * f.eigenvalues).cwiseSqrt();
+      centre_local.setZero();
+    } else {
+      sizes = 0.5 * (f.max - f.min);
+      centre_local = 0.5 * (f.max + f.min);
+    }
+    sizes = sizes.cwiseMax(lo);
+    for (int z_axis = 0; z_axis < 3; ++z_axis) {
+      // Cyclic permutation of the (right-handed) principal axes: columns x, y, z.
+      const int ix = (z_axis + 1) % 3, iy = (z_axis + 2) % 3;
+      Eigen::Matrix3d r;
+      r.col(0) = f.axes.col(ix);
+      r.col(1) = f.axes.col(iy);
+      r.col(2) = f.axes.col(z_axis);
+      Superquadric sq;
+      sq.a = Eigen::Vector3d(sizes[ix], sizes[iy], sizes[z_axis]);
+      sq.e1 = sq.e2 = std::min(std::max(1.0, params_.epsilon_min), params_.epsilon_max);
+      sq.euler = eulerZyzFromRotation(r);
+      sq.position = f.centroid + f.axes * centre_local;
+      guesses.push_back(sq);
+    }
+  }
+  return guesses;
+}
+
+FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric& initial,
+                                     int max_iterations, bool line_search,
+                                     FitMeasures measures) const {
+  requirePoints(points, "SuperquadricFitter::refine");
+  return solve(points, initial, max_iterations, line_search, measures);
+}
+
+FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& initial,
+                                    int max_iterations, bool line_search, FitMeasures measures,
+                                    const PrincipalFrame* frame) const {
+  const PrincipalFrame f = frame ? *frame : principalFrame(points);
+  const double h = std::max(f.halfExtent(), params_.min_size_m);
+  const double size_lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
+  const double size_hi = std::max(params_.max_size_factor * h, 2.0 * size_lo);
+
+  const Eigen::Matrix3d r0 = initial.rotation();
+  const Eigen::Vector3d c0 = initial.position;
+  double a[3], e[2], w[3] = {0.0, 0.0, 0.0}, t[3] = {0.0, 0.0, 0.0};
+  for (int k = 0; k < 3; ++k) a[k] = std::min(std::max(initial.a[k], size_lo), size_hi);
+  e[0] = std::min(std::max(initial.e1, params_.epsilon_min), params_.epsilon_max);
+  e[1] = std::min(std::max(initial.e2, params_.epsilon_min), params_.epsilon_max);
+  // The centre may move within size_hi of the point set's centroid (expressed in the start
+  // frame), so that a fit cannot run away from its data.
+  const Eigen::Vector3d centroid_local = r0.transpose() * (f.centroid - c0);
+
+  ceres::Problem problem;
+  ceres::LossFunction* loss = nullptr;
+  const double loss_scale = params_.robust_loss_scale * std::sqrt(a[0] * a[1] * a[2]);
+  // One loss instance shared by all residuals (the problem owns it once).
+  if (params_.robust_loss == "huber") {
+    loss = new ceres::HuberLoss(loss_scale);
+  } else if (params_.robust_loss == "cauchy") {
+    loss = new ceres::CauchyLoss(loss_scale);
+  }
+  if (!loss && !params_.autodiff) {
+    // One block for all points: same cost and derivatives, far less per-block overhead.
+    Points3d q(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
+    problem.AddResidualBlock(new SuperquadricBatchResidual(q), nullptr, a, e, w, t);
+  } else {
+    for (const auto& p : points) {
+      const Eigen::Vector3d q = r0.transpose() * (p - c0);
+      problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(q)
+                                                : SuperquadricAnalyticResidual::Create(q),
+                               loss, a, e, w, t);
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    problem.SetParameterLowerBound(a, k, size_lo);
+    problem.SetParameterUpperBound(a, k, size_hi);
+    problem.SetParameterLowerBound(t, k, centroid_local[k] - size_hi);
+    problem.SetParameterUpperBound(t, k, centroid_local[k] + size_hi);
+  }
+  for (int k = 0; k < 2; ++k) {
+    problem.SetParameterLowerBound(e, k, params_.epsilon_min);
+    problem.SetParameterUpperBound(e, k, params_.epsilon_max);
+  }
+
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = max_iterations < 0 ? params_.max_iterations : max_iterations;
+  options.function_tolerance = params_.function_tolerance;
+  options.gradient_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-8;
+  options.num_threads = 1;
+  // With bounds, Ceres searches along each projected step (several extra evaluations per
+  // iteration); ranking fits skip it and take the projected step as it is.
+  if (!line_search) options.max_num_line_search_step_size_iterations = 0;
+  options.minimizer_progress_to_stdout = false;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  if (options.max_num_iterations > 0) ceres::Solve(options, &problem, &summary);
+
+  FitResult result;
+  Superquadric& sq = result.sq;
+  sq = initial;
+  const Eigen::Vector3d wv(w[0], w[1], w[2]);
+  const Eigen::Vector3d tv(t[0], t[1], t[2]);
+  const double angle = wv.norm();
+  const Eigen::Matrix3d dr = angle > 0.0 ? Eigen::AngleAxisd(angle, wv / angle).toRotationMatrix()
+                                         : Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d av(a[0], a[1], a[2]);
+  if (av.allFinite() && std::isfinite(e[0]) && std::isfinite(e[1]) && wv.allFinite() &&
+      tv.allFinite()) {
+    sq.a = av;
+    sq.e1 = e[0];
+    sq.e2 = e[1];
+    sq.euler = eulerZyzFromRotation(r0 * dr);
+    sq.position = c0 + r0 * tv;
+  }
+  sq.points = static_cast<int>(points.size());
+  result.iterations = static_cast<int>(summary.iterations.size());
+  if (measures == FitMeasures::kAll || measures == FitMeasures::kRadial) {
+    result.mean_radial_distance = meanRadialDistance(sq, points);
+  }
+  if (measures == FitMeasures::kAll || measures == FitMeasures::kSurface) {
+    result.mean_distance = meanSurfaceDistance(sq, points);
+  }
+  if (measures == FitMeasures::kAll) {
+    result.residual = meanSquaredResidual(sq, points);
+    sq.residual = result.residual;
+  }
+  return result;
+}
+
+FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations, bool line_search,
+                                  FitMeasures measures) const {
+  requirePoints(points, "SuperquadricFitter::fit");
+  const PrincipalFrame frame = principalFrame(points);
+  const std::vector<Superquadric> guesses = initialGuesses(frame);
+  const Points3d screen = subsample(points, params_.screening_points);
+  // Every start is screened on the same points: their frame (the fit's bounds) once.
+  const PrincipalFrame screen_frame =
+      screen.size() == points.size() ? frame : principalFrame(screen);
+  FitResult best;
+  double best_error = std::numeric_limits<double>::infinity();
+  for (const auto& guess : guesses) {
+    FitResult r = solve(screen, guess, params_.screening_iterations, line_search,
+                        FitMeasures::kRadial, &screen_frame);
+    if (r.mean_radial_distance < best_error) {
+      best_error = r.mean_radial_distance;
+      best = r;
+    }
+  }
+  return solve(points, best.sq, max_iterations, line_search, measures, &frame);
+}
+
+}  // namespace novelty_detection
