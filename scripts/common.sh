@@ -19,3 +19,10 @@ source_devel() {
   [ "$had_u" = 1 ] && set -u
   return 0
 }
+
+# Real scans for test/real and scripts/evaluate_real.sh: NOVELTY_REAL_DATA, else the shared
+# data set beside the repository when it is there (shared/data/real).
+if [ -z "${NOVELTY_REAL_DATA:-}" ] && [ -d "$REPO/../shared/data/real" ]; then
+  NOVELTY_REAL_DATA="$(cd "$REPO/../shared/data/real" && pwd)"
+fi
+export NOVELTY_REAL_DATA="${NOVELTY_REAL_DATA:-}"

@@ -1,5 +1,7 @@
 #include "novelty_detection/params.h"
 
+#include "novelty_detection/preprocess/up_direction.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -39,7 +41,10 @@ void validateRanges(const char* group, const Group& params) {
 
 }  // namespace
 
-void PreprocessParams::validate() const { validateRanges("preprocess", *this); }
+void PreprocessParams::validate() const {
+  parseUp(up);  // throws naming preprocess/up
+  validateRanges("preprocess", *this);
+}
 
 void MultiScaleParams::validate() const { validateRanges("multiscale", *this); }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -14,9 +15,11 @@
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
+#include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/visibility/disappearance.h"
 #include "novelty_detection/visibility/visibility.h"
 #include "reference_model.h"
@@ -62,8 +65,11 @@ struct Detection {
   const ReferenceModel& ref;
   Result result;
   StageTimer timer;
-  Cloud aligned;                   ///< the sweep moved by the fine alignment, when applied
-  const Cloud* current = nullptr;  ///< the sweep in the map frame (input or aligned)
+  Cloud aligned;                     ///< the sweep moved by the fine alignment, when applied
+  const Cloud* current = nullptr;    ///< the sweep in the map frame (input or aligned)
+  Cloud without_self;                ///< the sweep with its self-returns set to NaN, when any
+  std::size_t self_returns = 0;      ///< current points taken for the robot
+  Indices disappearance_candidates;  ///< ref.kept without the reference's self-returns
   Simplified s;
   double tau = 0.0;    ///< novelty distance from the data (novelty_segmentation.h)
   WeightedPoints far;  ///< fine clusters farther than tau from the map
@@ -85,6 +91,32 @@ void alignToMap(const Cloud& input, Detection& d) {
     d.current = &d.aligned;
   }
   d.timer.lap("alignment");
+}
+
+/// The robot's own returns (preprocess/self_returns.h), sought when the sensor moved by more
+/// than the novelty distance (less, and they are no change anyway). The current ones become NaN
+/// (labels keep the input order), the reference ones cannot disappear. Returns whether the sweep
+/// changed (the stages so far must then run again).
+bool markSelfReturns(Detection& d) {
+  d.disappearance_candidates = d.ref.kept;
+  const SelfReturns self = findSelfReturns(d.ref.cloud, *d.current, d.params.preprocess, d.tau);
+  if (!self.checked) return false;
+  d.self_returns = self.current_count;
+  if (self.reference_count > 0) {
+    Indices kept;
+    for (int i : d.ref.kept)
+      if (!self.reference[i]) kept.push_back(i);
+    d.disappearance_candidates.swap(kept);
+  }
+  d.timer.lap("self_returns");
+  if (self.current_count == 0) return false;
+  d.without_self = *d.current;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < self.current.size(); ++i)
+    if (self.current[i]) d.without_self[i].x = d.without_self[i].y = d.without_self[i].z = nan;
+  d.without_self.is_dense = false;
+  d.current = &d.without_self;
+  return true;
 }
 
 /// Data scale: tau from the distances of a sample of current points to the map (Sec. IV-D
@@ -159,7 +191,7 @@ bool hiddenSegmentRuleApplies(const Detection& d) {
 void buildCurrentView(Detection& d) {
   const Cloud& current = *d.current;
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
-  if (sensorOriginKnown(origin) &&
+  if (sensorOriginKnown(current.sensor_origin_) &&
       (d.params.visibility.disappearances || hiddenSegmentRuleApplies(d)))
     d.current_view.build(current, {}, origin, rangeImageConfig(d.params.visibility));
 }
@@ -167,8 +199,8 @@ void buildCurrentView(Detection& d) {
 /// Reference structure the sweep now sees through (visibility/disappearance.h). Runs before
 /// the hidden segments: their rule skips the reference points that left.
 void findDisappearedStructure(Detection& d) {
-  if (findDisappearances(d.params, d.ref.cloud, d.ref.kept, *d.current, d.tau, &d.result,
-                         &d.current_view))
+  if (findDisappearances(d.params, d.ref.cloud, d.disappearance_candidates, *d.current, d.tau,
+                         &d.result, &d.current_view))
     d.timer.lap("disappearances");
 }
 
@@ -276,38 +308,27 @@ void fitSuperquadrics(Detection& d) {
   }
 }
 
-}  // namespace
-
-Pipeline::Pipeline(const Params& params) : params_(params) { params_.validate(); }
-Pipeline::~Pipeline() = default;
-Pipeline::Pipeline(Pipeline&&) noexcept = default;
-Pipeline& Pipeline::operator=(Pipeline&&) noexcept = default;
-
-void Pipeline::setReference(const Cloud& reference) {
-  reference_ = buildReferenceModel(params_, reference);
+/// Pre-processing, the multi-scale cut, the floor and tau of the sweep as it stands.
+void simplifyAndMeasure(Detection& d) {
+  d.s = simplify(d.params, *d.current, &d.result, &d.timer);
+  const GroundPlane& ground = d.s.pre.ground;
+  d.result.floor_found = ground.found;
+  if (ground.found) d.result.floor = ground.coefficients;
+  if (d.s.reps.size() > 0) measureDistancesToMap(d);
 }
 
-const Cloud& Pipeline::referenceCloud() const {
-  if (!reference_) throw std::logic_error("no reference set");
-  return reference_->cloud;
-}
-
-const Gmm& Pipeline::referenceGmm() const {
-  static const Gmm empty;
-  return reference_ ? reference_->gmm : empty;
-}
-
-Result Pipeline::detect(const Cloud& input) const {
-  if (!reference_) throw std::logic_error("detect() called before setReference()");
-  if (input.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
-    throw std::invalid_argument("cloud has " + std::to_string(input.size()) +
-                                " points, more than preprocess/max_points");
-  }
-  Detection d(params_, *reference_, input);
+/// The chain on a sweep already turned into the up frame.
+Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const Cloud& input) {
+  Detection d(params_, ref, input);
   alignToMap(input, d);
-  d.s = simplify(params_, *d.current, &d.result, &d.timer);
+  simplifyAndMeasure(d);
   if (d.s.reps.size() == 0) return std::move(d.result);  // empty or all-NaN: nothing is novel
-  measureDistancesToMap(d);
+  if (markSelfReturns(d)) {
+    d.result.point_counts.resize(1);  // "input": the counts follow the sweep without them
+    simplifyAndMeasure(d);
+    if (d.s.reps.size() == 0) return std::move(d.result);
+  }
+  d.result.point_counts.emplace_back("self_returns", d.self_returns);
   fitCurrentMixture(d);
   selectNovelGaussians(d);
   segmentCandidates(d);
@@ -318,6 +339,78 @@ Result Pipeline::detect(const Cloud& input) const {
   markNewlyVisible(d);
   fitSuperquadrics(d);
   return std::move(d.result);
+}
+
+Superquadric rotated(Superquadric sq, const Eigen::Matrix3d& R) {
+  sq.position = R * sq.position;
+  sq.euler = eulerZyzFromRotation(R * sq.rotation());
+  return sq;
+}
+
+/// A result computed in the up frame, expressed in the input frame again (R_up^T): segments'
+/// boxes are recomputed from the input points (boxes do not rotate), the rest rotates.
+void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r) {
+  const Eigen::Matrix3d Rt = ref.R_up.transpose();
+  if (r->alignment.applied) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Rt * r->alignment.correction.linear() * ref.R_up;
+    T.translation() = Rt * r->alignment.correction.translation();
+    r->alignment.correction = T;
+  }
+  const Cloud shown = r->alignment.applied ? transformCloud(input, r->alignment.correction) : input;
+  auto reframe = [](const Cloud& cloud, std::vector<Segment>* segments) {
+    for (Segment& s : *segments) {
+      Segment t = makeSegment(cloud, std::move(s.indices), s.id);
+      t.emd_contribution = s.emd_contribution;
+      t.gaussians = std::move(s.gaussians);
+      s = std::move(t);
+    }
+  };
+  reframe(shown, &r->segments);
+  reframe(ref.given, &r->disappeared_segments);
+  for (Superquadric& sq : r->superquadrics) sq = rotated(std::move(sq), Rt);
+  for (Superquadric& sq : r->disappeared_superquadrics) sq = rotated(std::move(sq), Rt);
+  for (Gaussian& g : r->current_gmm.components) {
+    g.mean = Rt * g.mean;
+    g.cov = Rt * g.cov * ref.R_up;
+  }
+  if (r->floor_found) r->floor.head<3>() = Rt * r->floor.head<3>();
+}
+
+}  // namespace
+
+Pipeline::Pipeline(const Params& params) : params_(params) { params_.validate(); }
+Pipeline::~Pipeline() = default;
+Pipeline::Pipeline(Pipeline&&) noexcept = default;
+Pipeline& Pipeline::operator=(Pipeline&&) noexcept = default;
+
+Result Pipeline::detect(const Cloud& input) const {
+  if (!reference_) throw std::logic_error("detect() called before setReference()");
+  if (input.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
+    throw std::invalid_argument("cloud has " + std::to_string(input.size()) +
+                                " points, more than preprocess/max_points");
+  }
+  const ReferenceModel& ref = *reference_;
+  Result result = ref.rotated ? detectInUpFrame(params_, ref, rotateCloud(input, ref.R_up))
+                              : detectInUpFrame(params_, ref, input);
+  if (ref.rotated) toInputFrame(ref, input, &result);
+  result.up = ref.up.up;
+  result.up_source = ref.up.source;
+  return result;
+}
+
+void Pipeline::setReference(const Cloud& reference) {
+  reference_ = buildReferenceModel(params_, reference);
+}
+
+const Cloud& Pipeline::referenceCloud() const {
+  if (!reference_) throw std::logic_error("no reference set");
+  return reference_->rotated ? reference_->given : reference_->cloud;
+}
+
+const Gmm& Pipeline::referenceGmm() const {
+  static const Gmm empty;
+  return reference_ ? reference_->gmm : empty;
 }
 
 }  // namespace novelty_detection

@@ -28,6 +28,15 @@ WeightedPoints cutAsWeightedPoints(const MultiScaleTree& tree, const MultiScaleT
 
 }  // namespace
 
+Cloud rotateCloud(const Cloud& cloud, const Eigen::Matrix3d& R) {
+  Cloud out = cloud;
+  const Eigen::Matrix3f Rf = R.cast<float>();
+  for (auto& p : out.points) p.getVector3fMap() = Rf * p.getVector3fMap();  // NaN stays NaN
+  out.sensor_origin_.head<3>() = Rf * cloud.sensor_origin_.head<3>();
+  out.sensor_orientation_ = Eigen::Quaternionf(Rf) * cloud.sensor_orientation_;
+  return out;
+}
+
 Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer) {
   Simplified s;
   s.pre = Preprocessor(params.preprocess).compute(cloud);
@@ -63,7 +72,21 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
                                                           const Cloud& reference) {
   auto model = std::make_shared<ReferenceModel>();
-  model->cloud = reference;
+  model->up = resolveUp(parseUp(params.preprocess.up), reference);
+  model->rotated = model->up.up != Eigen::Vector3d::UnitZ();
+  if (model->rotated) {
+    model->R_up = rotationToZUp(model->up.up);
+    model->given = reference;
+    model->cloud = rotateCloud(reference, model->R_up);
+  } else {
+    model->cloud = reference;
+  }
+  return buildReferenceModelInUpFrame(params, std::move(model));
+}
+
+std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
+    const Params& params, std::shared_ptr<ReferenceModel> model) {
+  const Cloud& reference = model->cloud;
   const Simplified s = simplify(params, reference, nullptr, nullptr);
   if (s.pre.kept.size() < 4) {
     throw std::invalid_argument("reference cloud has " + std::to_string(s.pre.kept.size()) +
@@ -73,7 +96,7 @@ std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
   model->points.build(reference, s.pre.finite);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
   const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
-  if (sensorOriginKnown(origin))
+  if (sensorOriginKnown(reference.sensor_origin_))
     model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params.visibility));
   model->kept = s.pre.kept;
   if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept);

@@ -12,6 +12,7 @@
 #include "novelty_detection/params.h"
 #include "novelty_detection/preprocess/multiscale_tree.h"
 #include "novelty_detection/preprocess/preprocess.h"
+#include "novelty_detection/preprocess/up_direction.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/types.h"
 #include "novelty_detection/visibility/visibility.h"
@@ -19,7 +20,13 @@
 namespace novelty_detection {
 
 struct ReferenceModel {
-  Cloud cloud;                      ///< as given
+  /// The up direction (preprocess/up) and the rotation R_up (up to +z) that both clouds are
+  /// turned by about the origin before any stage; identity when up is +z.
+  UpEstimate up;
+  Eigen::Matrix3d R_up = Eigen::Matrix3d::Identity();
+  bool rotated = false;
+  Cloud given;                      ///< as given (kept only when rotated)
+  Cloud cloud;                      ///< in the up frame (as given when not rotated)
   Gmm gmm;                          ///< Gamma
   NearestNeighbourIndex points;     ///< every finite reference point (ground included)
   NearestNeighbourIndex structure;  ///< the points of `kept`, in that order
@@ -58,6 +65,9 @@ struct Simplified {
   WeightedPoints reps;       ///< `cut` as weighted points
 };
 
+/// `cloud` turned by R about the origin, its sensor origin too (its known flag kept).
+Cloud rotateCloud(const Cloud& cloud, const Eigen::Matrix3d& R);
+
 /// Pre-processing and the multi-scale cut of `cloud`; with `result`, its point counts and
 /// (with `timer`) the stage times are recorded.
 Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer);
@@ -66,5 +76,8 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 /// when fewer than 4 usable points remain after pre-processing.
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
                                                           const Cloud& reference);
+/// The rest of buildReferenceModel, once model->cloud is in the up frame.
+std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
+    const Params& params, std::shared_ptr<ReferenceModel> model);
 
 }  // namespace novelty_detection

@@ -28,7 +28,11 @@ struct ParamInfo {
 
 /// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
 struct PreprocessParams {
+  std::string up = "0 0 1";
   int max_points = 2000000;
+  double min_range_m = 0.0;
+  bool self_filter = true;
+  double self_max_range_m = 1.5;
   bool outlier_removal = true;
   int outlier_k = 8;
   double outlier_std_mul = 3.0;
@@ -44,7 +48,21 @@ struct PreprocessParams {
 
   template <class F>
   void visit(F&& f) {
+    f("up", up,
+      {"which way is up in the clouds' frame: three numbers (default +z, REP 103) or 'auto' "
+       "(the normal of the largest plane below the sensor that bounds the scene from below, "
+       "within 45 deg of +z, or of -y for an organised cloud: a camera's optical frame); "
+       "ground removal and floor footprints use it (preprocess/up_direction.h)"});
     f("max_points", max_points, {"sweeps with more points are refused", 1, 100000000});
+    f("min_range_m", min_range_m,
+      {"returns closer than this to their sensor are dropped from both clouds (0: none) [m]", 0.0,
+       100.0});
+    f("self_filter", self_filter,
+      {"drop the robot's own returns: points within self_max_range_m of their sensor that lie "
+       "at the same place in the sensor's frame in both sweeps (needs both sensor origins; "
+       "preprocess/self_returns.h)"});
+    f("self_max_range_m", self_max_range_m,
+      {"the robot's own returns are sought within this distance of the sensor [m]", 0.01, 100.0});
     f("outlier_removal", outlier_removal, {"enable statistical outlier removal"});
     f("outlier_k", outlier_k, {"neighbours used for the mean neighbour distance", 1, 1000});
     f("outlier_std_mul", outlier_std_mul,
@@ -59,7 +77,7 @@ struct PreprocessParams {
        "(see ground_noise_k) [m]",
        1e-4, 1.0});
     f("ground_max_angle_deg", ground_max_angle_deg,
-      {"max angle between the ground normal and the fixed frame's +z [deg]", 0.0, 90.0});
+      {"max angle between the ground normal and up (preprocess/up) [deg]", 0.0, 90.0});
     f("ground_max_iterations", ground_max_iterations,
       {"RANSAC iterations for the ground plane", 1, 100000});
     f("ground_noise_k", ground_noise_k,

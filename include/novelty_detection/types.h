@@ -20,11 +20,19 @@ using Indices = std::vector<int>;
 /// A plain list of 3D points [m] (what the geometry code works on).
 using Points3d = std::vector<Eigen::Vector3d>;
 
-/// Whether a cloud's sensor origin (PCL's sensor_origin_, the PCD VIEWPOINT) is known: finite
-/// and not (0, 0, 0), which is what a cloud without a viewpoint carries. Every stage that
-/// needs the viewpoint (visibility, hidden segments, disappearances, the ground rule) asks this.
-inline bool sensorOriginKnown(const Eigen::Vector3f& origin) {
-  return origin.allFinite() && !origin.isZero();
+/// Whether a cloud's sensor origin (PCL's sensor_origin_) is known: finite, and either stated
+/// (w = 1: given by the user, by tf, or a cloud in its own sensor frame, see setSensorOrigin)
+/// or not (0, 0, 0) (a PCD VIEWPOINT; a cloud without one carries zero with w = 0). Every
+/// stage that needs the viewpoint (visibility, hidden segments, disappearances, the ground
+/// rule) asks this.
+inline bool sensorOriginKnown(const Eigen::Vector4f& origin) {
+  return origin.head<3>().allFinite() && (origin[3] == 1.0f || !origin.head<3>().isZero());
+}
+
+/// States `cloud`'s sensor origin (known even when it is (0, 0, 0): a cloud in its sensor's
+/// own frame).
+inline void setSensorOrigin(Cloud& cloud, const Eigen::Vector3f& origin) {
+  cloud.sensor_origin_ << origin, 1.0f;
 }
 
 /// One component of a Gaussian mixture (metres, square metres).
@@ -126,6 +134,16 @@ struct Result {
   /// Fine alignment of the sweep. When applied, segments and superquadrics are expressed in
   /// the reference (map) frame after the correction; labels keep the input order.
   AlignmentResult alignment;
+
+  /// The up direction used (unit, input frame) and where it came from: "given", "plane" or
+  /// "nominal" (preprocess/up_direction.h).
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  std::string up_source = "given";
+  /// The current sweep's floor (a x + b y + c z + d = 0 in the input frame, (a, b, c) the
+  /// unit up normal) when ground removal found one; else floor_found is false and no point
+  /// was removed as ground.
+  bool floor_found = false;
+  Eigen::Vector4d floor = Eigen::Vector4d::Zero();
 
   bool hasNovelty() const { return !segments.empty(); }
 };

@@ -271,8 +271,8 @@ Cloud transformCloud(const Cloud& cloud, const Eigen::Isometry3d& T) {
     if (!finite(p)) continue;
     p.getVector3fMap() = R * p.getVector3fMap() + t;
   }
-  // A zero origin means "unknown" in this package (PCD without VIEWPOINT): keep it unknown.
-  if (!cloud.sensor_origin_.head<3>().isZero())
+  // An unknown origin (zero, not stated) stays unknown; a known one moves, w kept.
+  if (sensorOriginKnown(cloud.sensor_origin_))
     out.sensor_origin_.head<3>() = R * cloud.sensor_origin_.head<3>() + t;
   out.sensor_orientation_ = Eigen::Quaternionf(R) * cloud.sensor_orientation_;
   return out;

@@ -136,11 +136,17 @@ Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indic
 Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) { params_.validate(); }
 
 PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
-  return compute(cloud, cloud.sensor_origin_.head<3>());
+  const Eigen::Vector3f origin = cloud.sensor_origin_.head<3>();
+  return compute(cloud, origin, sensorOriginKnown(cloud.sensor_origin_));
 }
 
 PreprocessResult Preprocessor::compute(const Cloud& cloud,
                                        const Eigen::Vector3f& sensor_origin) const {
+  return compute(cloud, sensor_origin, sensor_origin.allFinite() && !sensor_origin.isZero());
+}
+
+PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin,
+                                       bool origin_known) const {
   if (cloud.size() > static_cast<std::size_t>(params_.max_points)) {
     throw std::invalid_argument(
         "Preprocessor: cloud has " + std::to_string(cloud.size()) +
@@ -159,8 +165,8 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud,
                                          &result.outliers);
   }
   if (params_.ground_removal) {
-    result.ground = findGroundPlane(cloud, current, params_,
-                                    sensorOriginKnown(sensor_origin) ? &sensor_origin : nullptr);
+    result.ground =
+        findGroundPlane(cloud, current, params_, origin_known ? &sensor_origin : nullptr);
   }
   // current and the ground inliers are both ascending: a linear set difference.
   result.kept.reserve(current.size());

@@ -258,8 +258,7 @@ void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& clou
   try {
     const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
         tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp));
-    cloud.sensor_origin_.head<3>() = T_fixed_sensor.translation().cast<float>();
-    cloud.sensor_origin_[3] = 0.f;
+    setSensorOrigin(cloud, T_fixed_sensor.translation().cast<float>());
     cloud.sensor_orientation_ = Eigen::Quaternionf(T_fixed_sensor.linear().cast<float>());
   } catch (const tf2::TransformException& e) {
     NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor pose for the sweep: %s", e.what());
@@ -330,7 +329,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
   setSensorPose(cloud, msg->header.frame_id, msg->header.stamp);
   if (capture_next_.exchange(false)) {
     try {
-      if (!sensorOriginKnown(cloud.sensor_origin_.head<3>()))
+      if (!sensorOriginKnown(cloud.sensor_origin_))
         NODELET_WARN(
             "captured reference without a viewpoint (the sweep is in the fixed frame "
             "and ~sensor_frame is not set)");

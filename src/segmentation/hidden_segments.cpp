@@ -199,7 +199,7 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
                                          const Params& params, const RangeImage* current_image) {
   std::vector<Indices> out;
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
-  if (hidden.empty() || !sensorOriginKnown(origin)) return out;
+  if (hidden.empty() || !sensorOriginKnown(current.sensor_origin_)) return out;
   const std::vector<Indices> segments =
       segmentNovelPoints(current, hidden, hidden_owner, num_gaussians, params.segmentation);
   if (segments.empty()) return out;

@@ -72,10 +72,29 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
                                  [](double d) { return !std::isfinite(d); }),
                   distances.end());
   if (distances.empty()) return floor_m;
-  const double med = median(distances);
-  for (double& d : distances) d = std::abs(d - med);
-  const double mad = median(distances);
-  return std::max(floor_m, med + factor * 1.4826 * mad);
+  std::sort(distances.begin(), distances.end());
+  // median + factor * 1.4826 MAD of the distances up to `limit` (sorted input).
+  auto threshold = [&](std::size_t count) {
+    std::vector<double> part(distances.begin(), distances.begin() + count);
+    const double med = part[part.size() / 2];
+    for (double& d : part) d = std::abs(d - med);
+    std::nth_element(part.begin(), part.begin() + part.size() / 2, part.end());
+    return med + factor * 1.4826 * part[part.size() / 2];
+  };
+  // Estimated on the part of the scene that matches, whatever share of it changed: start
+  // from the closer half of the points, then re-estimate on the points within the
+  // threshold until it no longer moves (a trimmed fixed point; the changed points, farther
+  // than the threshold, never enter it).
+  std::size_t count = std::max<std::size_t>(1, (distances.size() + 1) / 2);
+  double tau = threshold(count);
+  for (int it = 0; it < 50; ++it) {
+    const std::size_t next = std::max<std::size_t>(
+        1, std::upper_bound(distances.begin(), distances.end(), tau) - distances.begin());
+    if (next == count) break;
+    count = next;
+    tau = threshold(count);
+  }
+  return std::max(floor_m, tau);
 }
 
 std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,

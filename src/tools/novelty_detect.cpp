@@ -11,12 +11,17 @@
 #include <pcl/io/pcd_io.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -33,11 +38,48 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: novelty_detect --reference REF.pcd|.ply --current CUR.pcd|.ply --out DIR "
-    "[--config FILE.yaml]";
+    "[--config FILE.yaml] [--reference-origin X Y Z] [--current-origin X Y Z] "
+    "[--sensor-frame] [--up X Y Z | --up auto]";
+
+constexpr const char* kHelp = R"(Compares a current cloud with a reference map and writes, into DIR:
+labels.txt, superquadrics.json, report.json, segments.pcd, newly_visible.txt,
+disappeared_labels.txt and disappeared_superquadrics.json.
+
+  --reference FILE         the reference map (.pcd or .ply)
+  --current FILE           the current sweep (.pcd or .ply)
+  --out DIR                output directory (created)
+  --config FILE            YAML file overriding any parameter (docs/parameters.md)
+  --reference-origin X Y Z the reference sensor's position in the clouds' frame [m]
+                           (overrides the PCD VIEWPOINT)
+  --current-origin X Y Z   the same for the current sweep
+  --sensor-frame           each cloud is in its own sensor's frame: its origin (0, 0, 0) is
+                           the sensor. An organised cloud (HEIGHT > 1) is taken as such unless
+                           an origin is given or its VIEWPOINT is set.
+  --up X Y Z | --up auto   which way is up (preprocess/up; default 0 0 1). auto: estimated
+                           from the reference (the floor or table plane below the sensor).
+The visibility rules and disappearances need each cloud's sensor origin; without one they
+are off, and stderr and report.json (sensor_origins, visibility_checked) say so.
+Exit codes: 0 done, 1 unreadable or invalid input or configuration, 2 bad arguments.
+)";
 
 struct Args {
-  std::string reference, current, out, config;
+  std::string reference, current, out, config, up;
+  std::optional<Eigen::Vector3f> reference_origin, current_origin;
+  bool sensor_frame = false;
+  bool help = false;
 };
+
+Eigen::Vector3f parseVector(const std::string& flag, char** values) {
+  Eigen::Vector3f v;
+  for (int k = 0; k < 3; ++k) {
+    char* end = nullptr;
+    v[k] = std::strtof(values[k], &end);
+    if (end == values[k] || *end != '\0' || !std::isfinite(v[k]))
+      throw std::invalid_argument(flag + " needs three finite numbers, got '" +
+                                  std::string(values[k]) + "'");
+  }
+  return v;
+}
 
 Args parseArgs(int argc, char** argv) {
   Args a;
@@ -47,6 +89,36 @@ Args parseArgs(int argc, char** argv) {
                                            {"--config", &a.config}};
   for (int i = 1; i < argc; ++i) {
     const std::string key = argv[i];
+    if (key == "--help" || key == "-h") {
+      a.help = true;
+      return a;
+    }
+    if (key == "--sensor-frame") {
+      a.sensor_frame = true;
+      continue;
+    }
+    if (key == "--reference-origin" || key == "--current-origin") {
+      if (i + 3 >= argc) throw std::invalid_argument(key + " needs three numbers X Y Z");
+      (key == "--reference-origin" ? a.reference_origin : a.current_origin) =
+          parseVector(key, argv + i + 1);
+      i += 3;
+      continue;
+    }
+    if (key == "--up") {
+      if (i + 1 < argc && std::string(argv[i + 1]) == "auto") {
+        a.up = "auto";
+        ++i;
+        continue;
+      }
+      if (i + 3 >= argc) throw std::invalid_argument("--up needs X Y Z or auto");
+      const Eigen::Vector3f v = parseVector(key, argv + i + 1);
+      if (v.norm() < 1e-9) throw std::invalid_argument("--up must not be the zero vector");
+      std::ostringstream text;
+      text << std::setprecision(9) << v.x() << " " << v.y() << " " << v.z();
+      a.up = text.str();
+      i += 3;
+      continue;
+    }
     const auto it = opts.find(key);
     if (it == opts.end()) throw std::invalid_argument("unknown argument '" + key + "'");
     if (i + 1 >= argc) throw std::invalid_argument(key + " needs a value");
@@ -56,6 +128,23 @@ Args parseArgs(int argc, char** argv) {
     throw std::invalid_argument("--reference, --current and --out are required");
   }
   return a;
+}
+
+/// Where each cloud's sensor is: a given origin, else its own frame's origin with
+/// --sensor-frame or when it is organised (and has no VIEWPOINT), else the VIEWPOINT.
+/// Returns how the origin was found, for the report.
+std::string resolveOrigin(nd::Cloud& cloud, const std::optional<Eigen::Vector3f>& given,
+                          bool sensor_frame) {
+  if (given) {
+    nd::setSensorOrigin(cloud, *given);
+    return "given";
+  }
+  const bool viewpoint = nd::sensorOriginKnown(cloud.sensor_origin_);
+  if (sensor_frame || (cloud.height > 1 && !viewpoint)) {
+    nd::setSensorOrigin(cloud, Eigen::Vector3f::Zero());
+    return sensor_frame ? "sensor frame" : "sensor frame (organised cloud)";
+  }
+  return viewpoint ? "viewpoint" : "unknown";
 }
 
 json vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
@@ -121,8 +210,22 @@ json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
   return list;
 }
 
+/// What the run assumed and could check: the sensor origins, up, the floor.
+struct Assumptions {
+  std::string reference_origin, current_origin;  ///< how each origin was found
+  bool visibility_checked = false, disappearances_checked = false;
+  const nd::Cloud* reference = nullptr;
+  const nd::Cloud* current = nullptr;
+};
+
+json originJson(const nd::Cloud& cloud, const std::string& how) {
+  if (!nd::sensorOriginKnown(cloud.sensor_origin_)) return {{"position", nullptr}, {"from", how}};
+  return {{"position", vec(cloud.sensor_origin_.head<3>().cast<double>())}, {"from", how}};
+}
+
 json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
-                double detect_ms, bool checked_disappearances) {
+                double detect_ms, const Assumptions& as) {
+  const bool checked_disappearances = as.disappearances_checked;
   json timings = json::object();
   for (const auto& t : r.timings) timings[t.stage] = t.ms;
   timings["detect_total"] = detect_ms;
@@ -175,16 +278,39 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"disappeared_points", disappeared},
           {"num_disappeared_segments", r.disappeared_segments.size()},
           {"num_disappeared_superquadrics", r.disappeared_superquadrics.size()},
-          {"disappearances_checked", checked_disappearances}};
+          {"disappearances_checked", checked_disappearances},
+          {"visibility_checked", as.visibility_checked},
+          {"sensor_origins",
+           {{"reference", originJson(*as.reference, as.reference_origin)},
+            {"current", originJson(*as.current, as.current_origin)}}},
+          {"up", vec(r.up)},
+          {"up_source", r.up_source},
+          {"floor", r.floor_found ? json::array({r.floor[0], r.floor[1], r.floor[2], r.floor[3]})
+                                  : json(nullptr)}};
 }
 
 int run(const Args& args) {
+  if (args.help) {
+    std::cout << kUsage << "\n\n" << kHelp;
+    return 0;
+  }
   nd::Params params;
   if (!args.config.empty()) nd::loadParamsYaml(args.config, params);
-  // loadCloud keeps the PCD VIEWPOINT as the cloud's sensor origin, which feeds the
-  // pipeline's free-space check.
-  const nd::Cloud reference = nd::loadCloud(args.reference);
-  const nd::Cloud current = nd::loadCloud(args.current);
+  if (!args.up.empty()) params.preprocess.up = args.up;
+  // loadCloud keeps the PCD VIEWPOINT as the cloud's sensor origin; the flags override it.
+  nd::Cloud reference = nd::loadCloud(args.reference);
+  nd::Cloud current = nd::loadCloud(args.current);
+  Assumptions as;
+  as.reference_origin = resolveOrigin(reference, args.reference_origin, args.sensor_frame);
+  as.current_origin = resolveOrigin(current, args.current_origin, args.sensor_frame);
+  as.reference = &reference;
+  as.current = &current;
+  as.visibility_checked =
+      params.segmentation.visibility_check && nd::sensorOriginKnown(reference.sensor_origin_);
+  if (params.segmentation.visibility_check && !as.visibility_checked)
+    std::cerr << "novelty_detect: the reference's sensor origin is unknown (no VIEWPOINT): "
+                 "the visibility rules are off; give --reference-origin X Y Z or "
+                 "--sensor-frame\n";
   std::filesystem::create_directories(args.out);
 
   using Clock = std::chrono::steady_clock;
@@ -216,13 +342,20 @@ int run(const Args& args) {
   writeText((dir / "disappeared_labels.txt").string(), gone);
   writeText((dir / "disappeared_superquadrics.json").string(),
             superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
-  // Disappearances need the current sweep's viewpoint (PCD VIEWPOINT).
-  const bool checked =
-      params.visibility.disappearances && nd::sensorOriginKnown(current.sensor_origin_.head<3>());
-  if (params.visibility.disappearances && !checked)
-    std::cerr << "novelty_detect: the current cloud has no VIEWPOINT: disappearances not checked\n";
+  // Disappearances need the current sweep's sensor origin.
+  as.disappearances_checked =
+      params.visibility.disappearances && nd::sensorOriginKnown(current.sensor_origin_);
+  if (params.visibility.disappearances && !as.disappearances_checked)
+    std::cerr << "novelty_detect: the current cloud's sensor origin is unknown (no VIEWPOINT): "
+                 "disappearances not checked; give --current-origin X Y Z or --sensor-frame\n";
+  if (result.up_source != "given")
+    std::cerr << "novelty_detect: up (auto) = (" << result.up.x() << ", " << result.up.y() << ", "
+              << result.up.z() << ") from "
+              << (result.up_source == "plane" ? "a floor plane"
+                                              : "no floor plane found: +z assumed")
+              << "\n";
   writeText((dir / "report.json").string(),
-            reportJson(result, pipeline, ref_ms, det_ms, checked).dump(2) + "\n");
+            reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
 
   // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
   const nd::Cloud shown =

@@ -90,6 +90,9 @@ class Preprocessor {
   /// With the sensor position given explicitly (compute(cloud) uses cloud.sensor_origin_,
   /// PCL's viewpoint, which the simulator and saveCloudAtomic fill in).
   PreprocessResult compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin) const;
+  /// With the origin and whether it is known stated explicitly.
+  PreprocessResult compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin,
+                           bool origin_known) const;
 
  private:
   PreprocessParams params_;

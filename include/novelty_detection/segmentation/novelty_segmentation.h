@@ -46,7 +46,10 @@ class NearestNeighbourIndex {
   std::unique_ptr<Impl> impl_;
 };
 
-/// tau = max(floor_m, median + factor * 1.4826 * MAD) of `distances` (0 for an empty list).
+/// tau = max(floor_m, median + factor * 1.4826 * MAD) of the distances that match: the
+/// median and MAD are taken over the distances up to tau itself (the fixed point reached from
+/// the closer half), so tau stays the noise scale of the unchanged part however much of the
+/// scene changed (floor_m for an empty list).
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m);
 
 /// Connected components of cloud[indices] with the link rule above. Returns components of at

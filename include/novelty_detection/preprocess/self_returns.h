@@ -1,0 +1,43 @@
+// The robot's own returns (self-returns). ROS-free.
+//
+// A sensor on a robot sees parts of the robot (its body, mast, wheels) in every sweep, at
+// the same place relative to the sensor. Comparing two sweeps taken from different poses,
+// those returns are at different places in the map frame: the current ones look like a new
+// object, the reference ones like a disappearance. The rule: within
+// preprocess/self_max_range_m of its sensor, a point whose position in the sensor's frame
+// (R_sensor^T (p - origin), from each cloud's sensor origin and orientation) lies within a
+// tolerance of a point of the other sweep's sensor frame, and that has no point of the other
+// sweep within the tolerance in the common (map) frame, is a self-return, in both sweeps:
+// where the robot stood still, its returns and the scene around it match in both frames and
+// nothing is marked; where it moved by less than the novelty distance, nothing is sought.
+// The tolerance is twice the median spacing of the reference's near points (their sampling),
+// so it scales with the sensor. Static surfaces that run along the robot's motion (the floor
+// under it, a corridor wall beside it) can match in the sensor frame too, where the other
+// sweep sampled them more sparsely: they are unchanged, and dropping them loses nothing. Returns
+// closer than preprocess/min_range_m are dropped as well (the laser_filters range filter).
+// Both sensor origins must be known; otherwise nothing is marked.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+struct SelfReturns {
+  bool checked = false;                 ///< both origins known and the filter on
+  std::vector<std::uint8_t> current;    ///< per current point: 1 = self-return (or too close)
+  std::vector<std::uint8_t> reference;  ///< per reference point: 1 = self-return (or too close)
+  std::size_t current_count = 0, reference_count = 0;
+  double tolerance_m = 0.0;
+};
+
+/// `novelty_distance_m`: when the sensor moved (plus its turn times self_max_range_m) by
+/// less than this, the robot's returns are within it of where they were and are no change:
+/// only min_range_m applies.
+SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
+                            const PreprocessParams& params, double novelty_distance_m = 0.0);
+
+}  // namespace novelty_detection

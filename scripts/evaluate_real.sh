@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The real-data table: the real-scan pairs of test/real (Kinect tabletop pairs with labels,
+# the ETH apartment laser pair), run with the defaults and the stated sensor origins and up,
+# printed as Markdown with the commit. Needs the real-scan data set (NOVELTY_REAL_DATA, see
+# scripts/common.sh) and a build (scripts/build.sh).
+#   bash scripts/evaluate_real.sh
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+BIN="$WS/devel/lib/novelty_detection/test_real_pairs"
+[ -n "$NOVELTY_REAL_DATA" ] || { log "no real-scan data: set NOVELTY_REAL_DATA"; exit 1; }
+[ -x "$BIN" ] || bash "$REPO/scripts/build.sh" test_real_pairs
+echo "Real scans ($(git -C "$REPO" rev-parse --short HEAD), $(nproc) cores; \`bash scripts/evaluate_real.sh\`):"
+echo
+echo "| pair | origins and up | precision | recall | F1 | segments | up used |"
+echo "|---|---|---:|---:|---:|---:|---|"
+"$BIN" 2>/dev/null | grep '^| [a-z0-9]*\.pcd' || true
+echo
+"$BIN" 2>/dev/null | grep '^| eth' || true

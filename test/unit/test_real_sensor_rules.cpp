@@ -1,0 +1,220 @@
+// Rules for real sensors with known answers: which way is up (preprocess/up), the robot's
+// own returns, the novelty distance when much of the scene changed, and stated sensor
+// origins (a cloud in its own sensor frame has its origin at zero).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/self_returns.h"
+#include "novelty_detection/preprocess/up_direction.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "synthetic_scene.h"
+
+using namespace novelty_detection;
+
+namespace {
+
+double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+Cloud rotated(const Cloud& c, const Eigen::Matrix3d& R) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  return transformCloud(c, T);
+}
+
+synthetic::Scene corridor(unsigned seed) {
+  synthetic::SceneOptions o;
+  o.seed = seed;
+  o.range_sigma_m = 0.01;
+  return synthetic::makeCorridor(o);
+}
+
+}  // namespace
+
+TEST(UpDirection, ParsesVectorsAndAutoAndRefusesTheRest) {
+  EXPECT_TRUE(parseUp("auto").automatic);
+  const UpSetting s = parseUp("0 -2 0");
+  EXPECT_FALSE(s.automatic);
+  EXPECT_NEAR((s.vector - Eigen::Vector3d(0, -1, 0)).norm(), 0.0, 1e-12);
+  for (const char* bad : {"", "0 0", "0 0 0", "1 2 3 4", "up", "nan 0 1", "0 0 inf"})
+    EXPECT_THROW(parseUp(bad), std::invalid_argument) << bad;
+  Params p;
+  p.preprocess.up = "sideways";
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+}
+
+// A corridor sweep turned by a known rotation: auto finds the floor's normal, which is the
+// rotated +z, whatever the rotation (the ceiling and walls are refused: the sensor is not
+// above the ceiling, walls are 90 degrees from every nominal up).
+TEST(UpDirection, AutoFindsTheFloorOfARotatedSweep) {
+  const synthetic::Scene s = corridor(3);
+  Cloud c = s.cloud;
+  setSensorOrigin(c, Eigen::Vector3f(0, 0, 0.6));
+  for (const Eigen::Vector3d axis : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0.3, 1, 0.2)}) {
+    for (const double deg : {0.0, 20.0, 40.0}) {
+      const Eigen::Matrix3d R(Eigen::AngleAxisd(deg * M_PI / 180, axis.normalized()));
+      const UpEstimate e = resolveUp(parseUp("auto"), rotated(c, R));
+      EXPECT_EQ(e.source, "plane") << deg;
+      EXPECT_LT(angleDeg(e.up, R * Eigen::Vector3d::UnitZ()), 1.0) << deg;
+    }
+  }
+}
+
+// A camera looking down at a floor from 1 m, in the optical frame (x right, y down, z
+// forward), organised: up is the floor normal, mostly -y.
+TEST(UpDirection, AutoInACameraFrame) {
+  Cloud c;
+  c.width = 64;
+  c.height = 48;
+  const Eigen::Matrix3d R_cam_world =  // optical frame: camera pitched 40 deg down
+      (Eigen::AngleAxisd(M_PI / 2 + 40 * M_PI / 180, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int v = 0; v < 48; ++v) {
+    for (int u = 0; u < 64; ++u) {
+      const Eigen::Vector3d ray_cam((u - 32) / 60.0, (v - 24) / 60.0, 1.0);
+      const Eigen::Vector3d ray = R_cam_world.transpose() * ray_cam;  // world, z up
+      const double t = ray.z() < -1e-3 ? -1.0 / ray.z() : 3.0;        // floor at z = -1
+      Eigen::Vector3d p = R_cam_world * (t * ray);
+      p += noise(rng) * p.normalized();
+      c.push_back(PointT(p.x(), p.y(), p.z()));
+    }
+  }
+  c.width = 64;
+  c.height = 48;
+  setSensorOrigin(c, Eigen::Vector3f::Zero());
+  const UpEstimate e = resolveUp(parseUp("auto"), c);
+  EXPECT_EQ(e.source, "plane");
+  EXPECT_LT(angleDeg(e.up, R_cam_world * Eigen::Vector3d::UnitZ()), 1.0);
+}
+
+// The pipeline in a rotated frame gives the same labels as in the up frame, and reports
+// the floor and up in the input frame.
+TEST(UpDirection, RotatedInputGivesTheSameLabels) {
+  synthetic::SceneOptions o;
+  o.range_sigma_m = 0.01;
+  o.seed = 4;
+  o.objects = {};
+  synthetic::Scene ref = synthetic::makeCorridor(o);
+  o.objects = {{Eigen::Vector3d(3.0, -0.3, 0.0), Eigen::Vector3d(3.5, 0.2, 0.6)}};
+  o.seed = 5;
+  synthetic::Scene cur = synthetic::makeCorridor(o);
+  setSensorOrigin(ref.cloud, Eigen::Vector3f(0, 0, 0.6));
+  setSensorOrigin(cur.cloud, Eigen::Vector3f(0, 0, 0.6));
+  Params p;
+  p.superquadric.enabled = false;
+  Pipeline a(p);
+  a.setReference(ref.cloud);
+  const Result ra = a.detect(cur.cloud);
+  const Eigen::Matrix3d R(Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()));
+  const Eigen::Vector3d up = R * Eigen::Vector3d::UnitZ();
+  Params q = p;
+  q.preprocess.up =
+      std::to_string(up.x()) + " " + std::to_string(up.y()) + " " + std::to_string(up.z());
+  Pipeline b(q);
+  b.setReference(rotated(ref.cloud, R));
+  const Result rb = b.detect(rotated(cur.cloud, R));
+  ASSERT_EQ(ra.segments.size(), 1u);
+  ASSERT_EQ(rb.segments.size(), 1u);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < ra.labels.size(); ++i)
+    differ += (ra.labels[i] > 0) != (rb.labels[i] > 0);
+  EXPECT_LE(differ, ra.segments[0].indices.size() / 50) << "labels differ beyond rounding";
+  EXPECT_LT((rb.segments[0].centroid - R * ra.segments[0].centroid).norm(), 0.01);
+  ASSERT_TRUE(rb.floor_found);
+  EXPECT_LT(angleDeg(rb.floor.head<3>(), up), 0.5);
+  EXPECT_LT(angleDeg(rb.up, up), 1e-3);
+}
+
+// A robot body (a box around the sensor) seen in both sweeps from poses 2 m apart: its
+// returns are marked in both clouds, a new object near the robot is not; from the same pose
+// nothing is.
+TEST(SelfReturns, BodyMarkedStaticSceneKept) {
+  auto sweep = [](const Eigen::Vector3d& at, unsigned seed, std::vector<int>* body,
+                  std::vector<synthetic::AlignedBox> objects = {}) {
+    synthetic::SceneOptions o;
+    o.seed = seed;
+    o.range_sigma_m = 0.005;
+    o.sensor = at;
+    o.objects = objects;
+    synthetic::Scene s = synthetic::makeCorridor(o);
+    // The body: a 0.4 x 0.4 x 0.3 m box below the sensor, sampled on its top.
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-0.2, 0.2);
+    for (int k = 0; k < 400; ++k) {
+      body->push_back(static_cast<int>(s.cloud.size()));
+      s.cloud.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
+    }
+    setSensorOrigin(s.cloud, at.cast<float>());
+    return s.cloud;
+  };
+  std::vector<int> body_ref, body_cur;
+  const Cloud ref = sweep(Eigen::Vector3d(0, 0, 0.6), 1, &body_ref);
+  // A new box 0.8 m in front of the current sensor: never a self-return above the floor
+  // band (its lowest centimetres lie within the tolerance of the floor, like the floor).
+  const Cloud cur = sweep(Eigen::Vector3d(2, 0, 0.6), 2, &body_cur,
+                          {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
+  PreprocessParams p;
+  const SelfReturns s = findSelfReturns(ref, cur, p);
+  ASSERT_TRUE(s.checked);
+  std::size_t body_marked = 0;
+  for (int i : body_cur) body_marked += s.current[i];
+  EXPECT_GE(body_marked, body_cur.size() * 95 / 100);
+  std::size_t box_points = 0, box_marked = 0;
+  for (std::size_t i = 0; i < cur.size(); ++i) {
+    const auto& q = cur[i];
+    if (q.x > 2.79 && q.x < 3.11 && std::abs(q.y) < 0.21 && q.z > 0.06 && q.z < 0.51) {
+      ++box_points;
+      box_marked += s.current[i];
+    }
+  }
+  EXPECT_GT(box_points, 100u);
+  EXPECT_EQ(box_marked, 0u) << "points of a new object taken for the robot";
+  std::size_t ref_body_marked = 0;
+  for (int i : body_ref) ref_body_marked += s.reference[i];
+  EXPECT_GE(ref_body_marked, body_ref.size() * 95 / 100);
+  // Same pose: everything near the sensor matches in the map frame too: nothing marked.
+  const SelfReturns same = findSelfReturns(ref, ref, p);
+  EXPECT_EQ(same.current_count, 0u);
+  EXPECT_EQ(same.reference_count, 0u);
+  // Unknown origins: nothing checked.
+  Cloud unknown = cur;
+  unknown.sensor_origin_.setZero();
+  EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
+}
+
+// Half the points moved: tau stays at the noise scale of the half that matches.
+TEST(NoveltyDistance, HoldsWhenMuchOfTheSceneChanged) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::uniform_real_distribution<double> moved(0.1, 0.5);
+  std::vector<double> matched, mixed;
+  for (int i = 0; i < 4000; ++i) matched.push_back(std::abs(noise(rng)) + 0.01);
+  mixed = matched;
+  for (int i = 0; i < 3000; ++i) mixed.push_back(moved(rng));
+  const double clean = noveltyDistanceThreshold(matched, 6.0, 0.0);
+  const double contaminated = noveltyDistanceThreshold(mixed, 6.0, 0.0);
+  EXPECT_GT(clean, 0.02);
+  EXPECT_LT(clean, 0.06);
+  EXPECT_NEAR(contaminated, clean, 0.2 * clean);
+  EXPECT_LT(contaminated, 0.1);  // below the moved points
+  EXPECT_DOUBLE_EQ(noveltyDistanceThreshold({}, 6.0, 0.03), 0.03);
+}
+
+// A stated zero origin is known; an unstated one is not.
+TEST(SensorOrigin, StatedZeroIsKnown) {
+  Cloud c;
+  EXPECT_FALSE(sensorOriginKnown(c.sensor_origin_));
+  setSensorOrigin(c, Eigen::Vector3f::Zero());
+  EXPECT_TRUE(sensorOriginKnown(c.sensor_origin_));
+  c.sensor_origin_ << 1, 2, 3, 0;
+  EXPECT_TRUE(sensorOriginKnown(c.sensor_origin_));
+  c.sensor_origin_ << NAN, 2, 3, 1;
+  EXPECT_FALSE(sensorOriginKnown(c.sensor_origin_));
+}
