@@ -15,4 +15,6 @@ echo "| pair | origins and up | precision | recall | F1 | segments | up used |"
 echo "|---|---|---:|---:|---:|---:|---|"
 "$BIN" 2>/dev/null | grep '^| [a-z0-9]*\.pcd' || true
 echo
+echo "| pair | origins and up | result |"
+echo "|---|---|---|"
 "$BIN" 2>/dev/null | grep '^| eth' || true

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Viewpoint robustness (issue 7): simulates the viewpoint suite (same pose / pose offset /
+# Viewpoint robustness: simulates the viewpoint suite (same pose / pose offset /
 # localisation error, with removed objects), runs novelty_detect and the voxel-difference
 # baseline (baseline_detect) on every scene, scores both per scene group and writes the
-# Markdown table. This script is the single source of the README's "Viewpoint robustness"
-# table (between its viewpoint-table markers), which it rewrites unless --no-readme.
+# Markdown table. This script is the single source of the viewpoint table of
+# docs/evaluation.md (between its viewpoint-table markers), which it rewrites unless --no-docs.
 #
-#   bash scripts/evaluate_viewpoint.sh [--no-readme] [N=36] [OUT_DIR=out/viewpoint]
+#   bash scripts/evaluate_viewpoint.sh [--no-docs] [N=36] [OUT_DIR=out/viewpoint]
 #
 # Writes OUT_DIR/scenes (simulated; reused when size, seed and kind match and simulate_scans
 # is older),
@@ -15,8 +15,8 @@
 # NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-README_UPDATE=1
-if [ "${1:-}" = "--no-readme" ]; then README_UPDATE=0; shift; fi
+DOCS_UPDATE=1
+case "${1:-}" in --no-docs | --no-readme) DOCS_UPDATE=0; shift ;; esac
 N="${1:-36}"
 OUT="${2:-$REPO/out/viewpoint}"
 SEED="${NOVELTY_SUITE_SEED:-1}"
@@ -112,7 +112,7 @@ for group in data["ours"]:
                     f"{pct(g['successes'], g['scenes'])} | {f1} | {dis} | {nv} |")
 text = ("\n".join(rows) + "\n\n"
         f"`bash scripts/evaluate_viewpoint.sh {n}` (suite seed {seed}, commit {commit}, "
-        f"{seconds} s). Scene success and F1 follow \"Simulator and evaluation\"; mean F1 is "
+        f"{seconds} s). Scene success and F1 as in the suite table; mean F1 is "
         "over scenes with appearances; a removal scene counts as found when every removed "
         "object has a disappearance segment with IoU >= 0.5 on its reference points.\n")
 open(f"{out}/viewpoint.md", "w").write(text)
@@ -120,8 +120,8 @@ print(text)
 PY
 mkdir -p "$REPO/bench/results"
 cp "$OUT/viewpoint.md" "$REPO/bench/results/viewpoint.md"
-if [ "$README_UPDATE" = 1 ]; then
-  /usr/bin/python3 - "$REPO/README.md" "$OUT/viewpoint.md" <<'PY'
+if [ "$DOCS_UPDATE" = 1 ]; then
+  /usr/bin/python3 - "$REPO/docs/evaluation.md" "$OUT/viewpoint.md" <<'PY'
 import sys
 readme, table = sys.argv[1], open(sys.argv[2]).read()
 begin, end = "<!-- viewpoint-table:begin -->", "<!-- viewpoint-table:end -->"
@@ -130,9 +130,9 @@ if begin in text and end in text:
     head, rest = text.split(begin, 1)
     _, tail = rest.split(end, 1)
     open(readme, "w").write(head + begin + "\n" + table + end + tail)
-    print("README.md: viewpoint table updated", file=sys.stderr)
+    print("docs/evaluation.md: viewpoint table updated", file=sys.stderr)
 else:
-    print("README.md: no viewpoint-table markers, not updated", file=sys.stderr)
+    print("docs/evaluation.md: no viewpoint-table markers, not updated", file=sys.stderr)
 PY
 fi
 log "table: $OUT/viewpoint.md (copied to bench/results/viewpoint.md)"

@@ -145,8 +145,8 @@ TEST(EthApartment, UnchangedPairFlagsLittle) {
     }
     const double share = static_cast<double>(novel) / cur.size();
     std::printf(
-        "| eth cloud_0 -> cloud_1 | sensor frames, published transform, up %s | novel %.2f %% of "
-        "%zu points, %zu within 1 m of the sensor; %zu segments; up (%.2f, %.2f, %.2f) %s; "
+        "| eth cloud_0 -> cloud_1 | sensor frames, published transform, up %s | %.2f %% of %zu "
+        "points novel, %zu within 1 m of the sensor; %zu segments; up (%.2f, %.2f, %.2f) %s; "
         "floor %s |\n",
         up.c_str(), 100.0 * share, cur.size(), near_sensor, r.segments.size(), r.up.x(), r.up.y(),
         r.up.z(), r.up_source.c_str(), r.floor_found ? "found" : "none");
