@@ -17,8 +17,8 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   result->disappeared_segments.clear();
   result->disappeared_superquadrics.clear();
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
-  if (!params.visibility.disappearances || !sensorOriginKnown(current.sensor_origin_) || candidates.empty() ||
-      current.empty())
+  if (!params.visibility.disappearances || !sensorOriginKnown(current.sensor_origin_) ||
+      candidates.empty() || current.empty())
     return false;
   RangeImage own;
   if (!current_image) own.build(current, {}, origin, rangeImageConfig(params.visibility));
