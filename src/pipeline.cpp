@@ -341,42 +341,6 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   return std::move(d.result);
 }
 
-Superquadric rotated(Superquadric sq, const Eigen::Matrix3d& R) {
-  sq.position = R * sq.position;
-  sq.euler = eulerZyzFromRotation(R * sq.rotation());
-  return sq;
-}
-
-/// A result computed in the up frame, expressed in the input frame again (R_up^T): segments'
-/// boxes are recomputed from the input points (boxes do not rotate), the rest rotates.
-void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r) {
-  const Eigen::Matrix3d Rt = ref.R_up.transpose();
-  if (r->alignment.applied) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Rt * r->alignment.correction.linear() * ref.R_up;
-    T.translation() = Rt * r->alignment.correction.translation();
-    r->alignment.correction = T;
-  }
-  const Cloud shown = r->alignment.applied ? transformCloud(input, r->alignment.correction) : input;
-  auto reframe = [](const Cloud& cloud, std::vector<Segment>* segments) {
-    for (Segment& s : *segments) {
-      Segment t = makeSegment(cloud, std::move(s.indices), s.id);
-      t.emd_contribution = s.emd_contribution;
-      t.gaussians = std::move(s.gaussians);
-      s = std::move(t);
-    }
-  };
-  reframe(shown, &r->segments);
-  reframe(ref.given, &r->disappeared_segments);
-  for (Superquadric& sq : r->superquadrics) sq = rotated(std::move(sq), Rt);
-  for (Superquadric& sq : r->disappeared_superquadrics) sq = rotated(std::move(sq), Rt);
-  for (Gaussian& g : r->current_gmm.components) {
-    g.mean = Rt * g.mean;
-    g.cov = Rt * g.cov * ref.R_up;
-  }
-  if (r->floor_found) r->floor.head<3>() = Rt * r->floor.head<3>();
-}
-
 }  // namespace
 
 Pipeline::Pipeline(const Params& params) : params_(params) { params_.validate(); }

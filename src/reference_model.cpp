@@ -1,5 +1,8 @@
 #include "reference_model.h"
 
+#include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/shape/superquadric.h"
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -24,6 +27,12 @@ WeightedPoints cutAsWeightedPoints(const MultiScaleTree& tree, const MultiScaleT
     w.covariances.col(i) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(c.data());
   }
   return w;
+}
+
+Superquadric rotated(Superquadric sq, const Eigen::Matrix3d& R) {
+  sq.position = R * sq.position;
+  sq.euler = eulerZyzFromRotation(R * sq.rotation());
+  return sq;
 }
 
 }  // namespace
@@ -116,6 +125,36 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     model->explained_log_density = v[q];
   }
   return model;
+}
+
+/// A result computed in the up frame, expressed in the input frame again (R_up^T): segments'
+/// boxes are recomputed from the input points (boxes do not rotate), the rest rotates.
+void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r) {
+  const Eigen::Matrix3d Rt = ref.R_up.transpose();
+  if (r->alignment.applied) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Rt * r->alignment.correction.linear() * ref.R_up;
+    T.translation() = Rt * r->alignment.correction.translation();
+    r->alignment.correction = T;
+  }
+  const Cloud shown = r->alignment.applied ? transformCloud(input, r->alignment.correction) : input;
+  auto reframe = [](const Cloud& cloud, std::vector<Segment>* segments) {
+    for (Segment& s : *segments) {
+      Segment t = makeSegment(cloud, std::move(s.indices), s.id);
+      t.emd_contribution = s.emd_contribution;
+      t.gaussians = std::move(s.gaussians);
+      s = std::move(t);
+    }
+  };
+  reframe(shown, &r->segments);
+  reframe(ref.given, &r->disappeared_segments);
+  for (Superquadric& sq : r->superquadrics) sq = rotated(std::move(sq), Rt);
+  for (Superquadric& sq : r->disappeared_superquadrics) sq = rotated(std::move(sq), Rt);
+  for (Gaussian& g : r->current_gmm.components) {
+    g.mean = Rt * g.mean;
+    g.cov = Rt * g.cov * ref.R_up;
+  }
+  if (r->floor_found) r->floor.head<3>() = Rt * r->floor.head<3>();
 }
 
 }  // namespace novelty_detection

@@ -68,6 +68,10 @@ struct Simplified {
 /// `cloud` turned by R about the origin, its sensor origin too (its known flag kept).
 Cloud rotateCloud(const Cloud& cloud, const Eigen::Matrix3d& R);
 
+/// A result computed in the up frame, expressed in the input frame again (R_up^T): segments'
+/// boxes are recomputed from `input` (boxes do not rotate), the rest rotates.
+void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r);
+
 /// Pre-processing and the multi-scale cut of `cloud`; with `result`, its point counts and
 /// (with `timer`) the stage times are recorded.
 Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer);

@@ -1,4 +1,5 @@
 // Pre-processing: finite filtering, sparse outlier removal (Rusu et al. 2008) and ground
+// Long by design: each case is a seeded scene with its known answer, kept beside its peers.
 // plane removal, against seeded synthetic corridor scans with exact ground truth.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,7 @@
 // Simulator scenes for viewpoint robustness: localisation error, removed objects,
 // newly-visible ground truth, the viewpoint suite; the voxel-difference baseline; scoring
 // per scene group. Known answers from seeded scenes and hand-made worlds.
+// Long by design: each case is a seeded scene with its known answer, kept beside its peers.
 #include <gtest/gtest.h>
 
 #include <algorithm>
