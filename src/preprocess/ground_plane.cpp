@@ -278,11 +278,17 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   std::stable_sort(candidates.begin() + 1, candidates.end(),
                    [](const Hypothesis& a, const Hypothesis& b) { return a.support > b.support; });
   candidates.resize(std::min<std::size_t>(candidates.size(), 8));
-  Refined refined = refine(sample, centre, candidates.front(), t, cos_max);
-  for (std::size_t k = 1; k < candidates.size(); ++k) {
-    const Refined r = refine(sample, centre, candidates[k], t, cos_max);
-    if (r.support / r.sigma > refined.support / refined.sigma) refined = r;
+  // Refinement can drift (a fixed point tilted through the clutter near the robot); a refined
+  // plane the sensor does not lie above is no floor either.
+  Refined refined;
+  bool have_refined = false;
+  for (const Hypothesis& h : candidates) {
+    const Refined r = refine(sample, centre, h, t, cos_max);
+    if (has_origin && r.normal.dot(origin) + r.d <= t) continue;
+    if (!have_refined || r.support / r.sigma > refined.support / refined.sigma) refined = r;
+    have_refined = true;
   }
+  if (!have_refined) return ground;  // found stays false: nothing is removed
   const Eigen::Vector3d normal = refined.normal;
   const double d = refined.d;
   const double sigma = refined.sigma;
