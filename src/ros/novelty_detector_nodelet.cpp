@@ -12,6 +12,7 @@
 #include <iomanip>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/alignment/alignment.h"
@@ -255,6 +256,13 @@ void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& clou
   const std::string sensor_frame =
       node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
   if (sensor_frame.empty() || sensor_frame == node_params_.fixed_frame) return;
+  // The sweep's own frame was waited for by the tf filter; a separate ~sensor_frame may lag
+  // behind it by a few tf messages: wait for it a little, on the wall clock (a paused
+  // simulated clock must not stop the worker).
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+  while (!tf_buffer_->canTransform(node_params_.fixed_frame, sensor_frame, stamp) &&
+         std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   try {
     const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
         tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp));
