@@ -20,22 +20,12 @@
 #include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/pipeline.h"
+#include "real_data.h"
 
-namespace fs = std::filesystem;
 using namespace novelty_detection;
+using namespace novelty_detection::real_data;
 
 namespace {
-
-fs::path dataDir() {
-  const char* d = std::getenv("NOVELTY_REAL_DATA");
-  return d ? fs::path(d) : fs::path();
-}
-
-#define REQUIRE_DATA(path)                           \
-  if (dataDir().empty() || !fs::exists(path))        \
-  GTEST_SKIP() << "real data not found (" << (path)  \
-               << "); set NOVELTY_REAL_DATA to the " \
-                  "directory that holds the real-scan folders"
 
 /// A labelled organised Kinect cloud: points (NaNs kept) and the object id per point.
 struct Labelled {
@@ -115,24 +105,13 @@ INSTANTIATE_TEST_SUITE_P(Osd, KinectPairs,
                                            KinectCase{
                                                "test31.pcd", "test32.pcd", {3, 4, 5}, 0.80}));
 
-/// The published registration of the ETH pair: cloud_1 into cloud_0's frame.
-Eigen::Isometry3d ethTransform() {
-  Eigen::Matrix4d m;
-  m << 0.993552, -0.113149, 0.00713103, 0.60831, 0.113181, 0.993565, -0.00425984, -0.00387758,
-      -0.00660312, 0.00503951, 0.999965, 0.0107267, 0, 0, 0, 1;
-  return Eigen::Isometry3d(m);
-}
-
 // The ETH apartment pair: the same place seen from two poses a few seconds apart, each in its
 // own sensor frame; cloud_1 is put into cloud_0's frame with the published registration.
 TEST(EthApartment, UnchangedPairFlagsLittle) {
-  const fs::path dir = dataDir() / "eth_apartment_tilting_hokuyo";
-  REQUIRE_DATA(dir / "cloud_1.pcd");
-  Cloud ref = loadCloud((dir / "cloud_0.pcd").string());
-  Cloud cur = loadCloud((dir / "cloud_1.pcd").string());
-  setSensorOrigin(ref, Eigen::Vector3f::Zero());
-  setSensorOrigin(cur, Eigen::Vector3f::Zero());
-  cur = transformCloud(cur, ethTransform());  // the origin moves with it
+  REQUIRE_DATA(ethDir() / "cloud_1.pcd");
+  const Pair pair = ethPair();
+  const Cloud& ref = pair.reference;
+  const Cloud& cur = pair.current;
   for (const std::string up : {"0 0 1", "auto"}) {
     Params p;
     p.preprocess.up = up;
@@ -176,13 +155,10 @@ TEST(EthApartment, UnchangedPairFlagsLittle) {
 // (No plane passes as the floor on this pair yet: its floor holds ~5 % of the points, and
 // the planes through the robot's mast and body near the sensor hold more.)
 TEST(EthApartment, FloorDoesNotDependOnOtherOptions) {
-  const fs::path dir = dataDir() / "eth_apartment_tilting_hokuyo";
-  REQUIRE_DATA(dir / "cloud_1.pcd");
-  Cloud ref = loadCloud((dir / "cloud_0.pcd").string());
-  Cloud cur = loadCloud((dir / "cloud_1.pcd").string());
-  setSensorOrigin(ref, Eigen::Vector3f::Zero());
-  setSensorOrigin(cur, Eigen::Vector3f::Zero());
-  cur = transformCloud(cur, ethTransform());
+  REQUIRE_DATA(ethDir() / "cloud_1.pcd");
+  const Pair pair = ethPair();
+  const Cloud& ref = pair.reference;
+  const Cloud& cur = pair.current;
   std::vector<std::pair<std::string, Params>> variants(6);
   variants[0].first = "defaults";
   variants[1].first = "range-scaled outliers";
