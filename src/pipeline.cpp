@@ -15,6 +15,7 @@
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
@@ -348,16 +349,29 @@ Pipeline::~Pipeline() = default;
 Pipeline::Pipeline(Pipeline&&) noexcept = default;
 Pipeline& Pipeline::operator=(Pipeline&&) noexcept = default;
 
-Result Pipeline::detect(const Cloud& input) const {
+Result Pipeline::detect(const Cloud& given) const {
   if (!reference_) throw std::logic_error("detect() called before setReference()");
-  if (input.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
-    throw std::invalid_argument("cloud has " + std::to_string(input.size()) +
+  if (given.size() > static_cast<std::size_t>(params_.preprocess.max_points)) {
+    throw std::invalid_argument("cloud has " + std::to_string(given.size()) +
                                 " points, more than preprocess/max_points");
   }
   const ReferenceModel& ref = *reference_;
+  // Absurd coordinates are missing points; a sweep off the map is refused.
+  const std::size_t out_of_range = countOutOfRange(given);
+  const Cloud cleaned = out_of_range ? withoutOutOfRange(given) : Cloud();
+  const Cloud& input = out_of_range ? cleaned : given;
+  requireOverlap(input, ref.extent);
   Result result = ref.rotated ? detectInUpFrame(params_, ref, rotateCloud(input, ref.R_up))
                               : detectInUpFrame(params_, ref, input);
   if (ref.rotated) toInputFrame(ref, input, &result);
+  auto warn = [&](std::size_t n, const char* which) {
+    if (n == 0) return;
+    result.warnings.push_back(
+        std::to_string(n) + " " + which + " points have a coordinate beyond " +
+        std::to_string(static_cast<int>(kMaxCoordinateM)) + " m and were taken as missing");
+  };
+  warn(out_of_range, "sweep");
+  warn(ref.out_of_range, "reference");
   result.up = ref.up.up;
   result.up_source = ref.up.source;
   return result;

@@ -1,6 +1,7 @@
 #include "reference_model.h"
 
 #include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/shape/superquadric.h"
 
 #include <algorithm>
@@ -79,8 +80,13 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 }
 
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
-                                                          const Cloud& reference) {
+                                                          const Cloud& given) {
   auto model = std::make_shared<ReferenceModel>();
+  model->out_of_range = countOutOfRange(given);
+  const Cloud cleaned = model->out_of_range ? withoutOutOfRange(given) : Cloud();
+  const Cloud& reference = model->out_of_range ? cleaned : given;
+  requireExtent(reference, "reference");
+  model->extent = usableExtent(reference);
   model->up = resolveUp(parseUp(params.preprocess.up), reference);
   model->rotated = model->up.up != Eigen::Vector3d::UnitZ();
   if (model->rotated) {

@@ -27,6 +27,8 @@ struct ReferenceModel {
   bool rotated = false;
   Cloud given;                      ///< as given (kept only when rotated)
   Cloud cloud;                      ///< in the up frame (as given when not rotated)
+  Eigen::AlignedBox3d extent;       ///< box of the usable points, input frame
+  std::size_t out_of_range = 0;     ///< points beyond kMaxCoordinateM, taken as missing
   Gmm gmm;                          ///< Gamma
   NearestNeighbourIndex points;     ///< every finite reference point (ground included)
   NearestNeighbourIndex structure;  ///< the points of `kept`, in that order

@@ -144,6 +144,9 @@ struct Result {
   /// was removed as ground.
   bool floor_found = false;
   Eigen::Vector4d floor = Eigen::Vector4d::Zero();
+  /// What the detector set aside and the user should know (e.g. points with absurd
+  /// coordinates treated as missing), one sentence each.
+  std::vector<std::string> warnings;
 
   bool hasNovelty() const { return !segments.empty(); }
 };

@@ -104,10 +104,12 @@ Params loadRosParams(const ros::NodeHandle& nh) {
 
 void NodeParams::validate() const {
   if (fixed_frame.empty()) throw std::invalid_argument("parameter 'fixed_frame' must not be empty");
-  if (!std::isfinite(tile_size_m))
-    throw std::invalid_argument("parameter 'tile_size_m' must be finite");
-  if (!(crop_margin_m >= 0.0) || !std::isfinite(crop_margin_m)) {
-    throw std::invalid_argument("parameter 'crop_margin_m' must be >= 0, got " +
+  if (!std::isfinite(tile_size_m) || (tile_size_m > 0.0 && tile_size_m < 0.1))
+    throw std::invalid_argument(
+        "parameter 'tile_size_m' must be finite and 0 (no tiles) or at "
+        "least 0.1");
+  if (!(crop_margin_m >= 0.0) || !(crop_margin_m <= 1e4)) {
+    throw std::invalid_argument("parameter 'crop_margin_m' must be in [0, 10000], got " +
                                 std::to_string(crop_margin_m));
   }
   if (!(sensor_range_m > 0.0)) {

@@ -1,5 +1,8 @@
 #include "novelty_detection/ros/tiled_reference.h"
 
+#include "novelty_detection/preprocess/input_check.h"
+
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -15,8 +18,13 @@ TiledReference::TiledReference(const Params& params, double tile_size_m, std::si
 
 TiledReference::TileKey TiledReference::tileOf(double x, double y) const {
   if (tile_size_m_ <= 0.0) return {0, 0};
-  return {static_cast<std::int64_t>(std::floor(x / tile_size_m_)),
-          static_cast<std::int64_t>(std::floor(y / tile_size_m_))};
+  // Clamped before the cast: a box corner far out (a wide margin) must not overflow int64.
+  const double limit = 1e15;
+  auto index = [&](double v) {
+    const double t = std::floor(v / tile_size_m_);
+    return static_cast<std::int64_t>(std::isnan(t) ? 0.0 : std::clamp(t, -limit, limit));
+  };
+  return {index(x), index(y)};
 }
 
 void TiledReference::setMap(const Cloud& map) {
@@ -24,7 +32,7 @@ void TiledReference::setMap(const Cloud& map) {
   std::map<TileKey, Indices> tiles;
   for (std::size_t i = 0; i < copy->size(); ++i) {
     const PointT& p = (*copy)[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    if (!usablePoint(p)) continue;  // absurd coordinates would overflow the tile index
     tiles[tileOf(p.x, p.y)].push_back(static_cast<int>(i));
   }
   if (tiles.empty()) {

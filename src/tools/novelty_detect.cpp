@@ -29,6 +29,7 @@
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/params_io.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/sensor_origin.h"
 #include "tool_main.h"
 
 namespace nd = novelty_detection;
@@ -50,11 +51,12 @@ disappeared_labels.txt and disappeared_superquadrics.json.
   --out DIR                output directory (created)
   --config FILE            YAML file overriding any parameter (docs/parameters.md)
   --reference-origin X Y Z the reference sensor's position in the clouds' frame [m]
-                           (overrides the PCD VIEWPOINT)
-  --current-origin X Y Z   the same for the current sweep
+                           (overrides preprocess/reference_origin and the PCD VIEWPOINT)
+  --current-origin X Y Z   the same for the current sweep (preprocess/current_origin)
   --sensor-frame           each cloud is in its own sensor's frame: its origin (0, 0, 0) is
-                           the sensor. An organised cloud (HEIGHT > 1) is taken as such unless
-                           an origin is given or its VIEWPOINT is set.
+                           the sensor (preprocess/sensor_frame). An organised cloud
+                           (HEIGHT > 1) is taken as such unless an origin is given or its
+                           VIEWPOINT is set.
   --up X Y Z | --up auto   which way is up (preprocess/up; default 0 0 1). auto: estimated
                            from the reference (the floor or table plane below the sensor).
 The visibility rules and disappearances need each cloud's sensor origin; without one they
@@ -128,23 +130,6 @@ Args parseArgs(int argc, char** argv) {
     throw std::invalid_argument("--reference, --current and --out are required");
   }
   return a;
-}
-
-/// Where each cloud's sensor is: a given origin, else its own frame's origin with
-/// --sensor-frame or when it is organised (and has no VIEWPOINT), else the VIEWPOINT.
-/// Returns how the origin was found, for the report.
-std::string resolveOrigin(nd::Cloud& cloud, const std::optional<Eigen::Vector3f>& given,
-                          bool sensor_frame) {
-  if (given) {
-    nd::setSensorOrigin(cloud, *given);
-    return "given";
-  }
-  const bool viewpoint = nd::sensorOriginKnown(cloud.sensor_origin_);
-  if (sensor_frame || (cloud.height > 1 && !viewpoint)) {
-    nd::setSensorOrigin(cloud, Eigen::Vector3f::Zero());
-    return sensor_frame ? "sensor frame" : "sensor frame (organised cloud)";
-  }
-  return viewpoint ? "viewpoint" : "unknown";
 }
 
 json vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
@@ -286,7 +271,8 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"up", vec(r.up)},
           {"up_source", r.up_source},
           {"floor", r.floor_found ? json::array({r.floor[0], r.floor[1], r.floor[2], r.floor[3]})
-                                  : json(nullptr)}};
+                                  : json(nullptr)},
+          {"warnings", r.warnings}};
 }
 
 int run(const Args& args) {
@@ -301,8 +287,21 @@ int run(const Args& args) {
   nd::Cloud reference = nd::loadCloud(args.reference);
   nd::Cloud current = nd::loadCloud(args.current);
   Assumptions as;
-  as.reference_origin = resolveOrigin(reference, args.reference_origin, args.sensor_frame);
-  as.current_origin = resolveOrigin(current, args.current_origin, args.sensor_frame);
+  // The flags override the configuration (preprocess/reference_origin, current_origin,
+  // sensor_frame), which overrides the files' VIEWPOINT.
+  const bool sensor_frame = args.sensor_frame || params.preprocess.sensor_frame;
+  as.reference_origin = nd::resolveOrigin(
+      reference,
+      args.reference_origin
+          ? args.reference_origin
+          : nd::parseOrigin("preprocess/reference_origin", params.preprocess.reference_origin),
+      sensor_frame);
+  as.current_origin = nd::resolveOrigin(
+      current,
+      args.current_origin
+          ? args.current_origin
+          : nd::parseOrigin("preprocess/current_origin", params.preprocess.current_origin),
+      sensor_frame);
   as.reference = &reference;
   as.current = &current;
   as.visibility_checked =
@@ -354,6 +353,7 @@ int run(const Args& args) {
               << (result.up_source == "plane" ? "a floor plane"
                                               : "no floor plane found: +z assumed")
               << "\n";
+  for (const std::string& w : result.warnings) std::cerr << "novelty_detect: " << w << "\n";
   writeText((dir / "report.json").string(),
             reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
 

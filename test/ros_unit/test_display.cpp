@@ -8,6 +8,7 @@
 
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/superquadric_mesh.h"
+#include "novelty_detection/ros/node_params.h"
 #include "novelty_detection/ros/tiled_reference.h"
 
 using namespace novelty_detection;
@@ -108,4 +109,30 @@ TEST(TiledReference, CachesOneModelPerSetOfTiles) {
   nan_map.push_back(PointT(NAN, 0, 0));
   EXPECT_THROW(ref.setMap(nan_map), std::invalid_argument);
   EXPECT_EQ(ref.mapSize(), 1000u);  // a refused map leaves the old one
+  // A box reaching absurdly far (a stray point near -9.2e19 m, a huge margin) neither
+  // overflows the tile index nor walks empty tiles: it answers at once.
+  const auto far = ref.pipelineFor(Eigen::Vector3d(-9.3e19, -1e20, 0), Eigen::Vector3d(1.5, 1, 1));
+  EXPECT_EQ(far->referenceCloud().size(), 200u);
+  EXPECT_THROW(ref.pipelineFor(Eigen::Vector3d(-1e30, -1e30, 0), Eigen::Vector3d(-1e29, -1e29, 1)),
+               std::runtime_error);
+  Cloud absurd = map;
+  absurd.push_back(PointT(-9.3e19f, 0.5f, 0.5f));
+  ref.setMap(absurd);  // the absurd point is no tile
+  EXPECT_EQ(ref.pipelineFor(Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(1.5, 1, 1))
+                ->referenceCloud()
+                .size(),
+            200u);
+}
+
+TEST(NodeParams, MarginAndTileSizeOutOfRangeAreRefused) {
+  NodeParams p;
+  EXPECT_NO_THROW(p.validate());
+  p.crop_margin_m = 1e20;  // accepted once: every sweep's box then spun over int64 tiles
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+  p.crop_margin_m = 10000.0;
+  EXPECT_NO_THROW(p.validate());
+  p.tile_size_m = 1e-30;
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+  p.tile_size_m = 0.0;  // no tiles
+  EXPECT_NO_THROW(p.validate());
 }

@@ -1,0 +1,52 @@
+// What the detector accepts as a measurement, and whether two clouds can be compared.
+// ROS-free.
+//
+// A finite coordinate is not always a measurement: a corrupt or uninitialised buffer holds
+// values like 1e20 m, which wreck every scale estimated from the data (the outlier
+// statistic, voxel and tile indices, the novelty threshold). A point with a coordinate
+// beyond kMaxCoordinateM (100 km; float32 resolves no better than 8 mm there) is treated as
+// missing, like NaN, and counted. A sweep that lies mostly outside the reference's extent
+// (wrong frame, lost localisation) cannot be compared: the detector says so instead of
+// answering "no change".
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstddef>
+
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+/// Largest accepted |x|, |y| or |z| of a point [m].
+constexpr float kMaxCoordinateM = 1e5f;
+
+/// Finite and within kMaxCoordinateM on every axis.
+inline bool usablePoint(const PointT& p) {
+  return std::abs(p.x) <= kMaxCoordinateM && std::abs(p.y) <= kMaxCoordinateM &&
+         std::abs(p.z) <= kMaxCoordinateM;  // false for NaN too
+}
+
+/// Points that are finite but beyond kMaxCoordinateM.
+std::size_t countOutOfRange(const Cloud& cloud);
+
+/// A copy of `cloud` with its out-of-range points made NaN (same size and order).
+Cloud withoutOutOfRange(const Cloud& cloud);
+
+/// Box of the usable points (empty box when there is none).
+Eigen::AlignedBox3d usableExtent(const Cloud& cloud);
+
+/// Throws std::invalid_argument when the usable points of `cloud` span less than 1 mm (all
+/// in one place: no map to compare with), naming `what` ("reference").
+void requireExtent(const Cloud& cloud, const char* what);
+
+/// Share of the usable points of `cloud` inside `extent` grown by `margin_m` on every side.
+double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double margin_m);
+
+/// Throws std::runtime_error when under a quarter of the sweep's usable points lie within
+/// the reference's extent grown by a tenth of its diagonal: the sweep is not of the mapped
+/// place (or not in its frame) and no answer would be honest.
+void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent);
+
+}  // namespace novelty_detection

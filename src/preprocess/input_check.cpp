@@ -1,0 +1,74 @@
+#include "novelty_detection/preprocess/input_check.h"
+
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace novelty_detection {
+
+std::size_t countOutOfRange(const Cloud& cloud) {
+  std::size_t n = 0;
+  for (const PointT& p : cloud)
+    n += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && !usablePoint(p);
+  return n;
+}
+
+Cloud withoutOutOfRange(const Cloud& cloud) {
+  Cloud out = cloud;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (PointT& p : out)
+    if (!usablePoint(p)) p.x = p.y = p.z = nan;
+  out.is_dense = false;
+  return out;
+}
+
+Eigen::AlignedBox3d usableExtent(const Cloud& cloud) {
+  Eigen::AlignedBox3d box;
+  for (const PointT& p : cloud)
+    if (usablePoint(p)) box.extend(p.getVector3fMap().cast<double>());
+  return box;
+}
+
+void requireExtent(const Cloud& cloud, const char* what) {
+  const Eigen::AlignedBox3d box = usableExtent(cloud);
+  if (box.isEmpty()) return;  // no usable point: the stages say so with their counts
+  const double span = box.diagonal().norm();
+  if (span < 1e-3) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "the %s's points span %.3g m (all in one place); no scene to "
+                  "compare",
+                  what, span);
+    throw std::invalid_argument(buf);
+  }
+}
+
+double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double margin_m) {
+  if (extent.isEmpty()) return 0.0;
+  const Eigen::AlignedBox3d grown(extent.min().array() - margin_m, extent.max().array() + margin_m);
+  std::size_t usable = 0, inside = 0;
+  for (const PointT& p : cloud) {
+    if (!usablePoint(p)) continue;
+    ++usable;
+    inside += grown.contains(p.getVector3fMap().cast<double>());
+  }
+  return usable ? static_cast<double>(inside) / usable : 1.0;
+}
+
+void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent) {
+  if (reference_extent.isEmpty()) return;
+  const double margin = 0.1 * reference_extent.diagonal().norm();
+  const double share = shareInside(sweep, reference_extent, margin);
+  if (share < 0.25) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "the sweep does not overlap the reference: %.1f %% of its points lie within "
+                  "the reference's extent (grown by %.2f m); check the frames and the sensor "
+                  "pose",
+                  100.0 * share, margin);
+    throw std::runtime_error(buf);
+  }
+}
+
+}  // namespace novelty_detection
