@@ -1,5 +1,6 @@
 #include "novelty_detection/params.h"
 
+#include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/preprocess/up_direction.h"
 
 #include <algorithm>
@@ -43,6 +44,8 @@ void validateRanges(const char* group, const Group& params) {
 
 void PreprocessParams::validate() const {
   parseUp(up);  // throws naming preprocess/up
+  parseOrigin("preprocess/reference_origin", reference_origin);
+  parseOrigin("preprocess/current_origin", current_origin);
   validateRanges("preprocess", *this);
 }
 

@@ -29,6 +29,9 @@ struct ParamInfo {
 /// Pre-processing (paper Sec. IV-A): sparse outlier removal, then ground plane removal.
 struct PreprocessParams {
   std::string up = "0 0 1";
+  std::string reference_origin;
+  std::string current_origin;
+  bool sensor_frame = false;
   int max_points = 2000000;
   double min_range_m = 0.0;
   bool self_filter = true;
@@ -53,6 +56,15 @@ struct PreprocessParams {
        "(the normal of the largest plane below the sensor that bounds the scene from below, "
        "within 45 deg of +z, or of -y for an organised cloud: a camera's optical frame); "
        "ground removal and floor footprints use it (preprocess/up_direction.h)"});
+    f("reference_origin", reference_origin,
+      {"the reference's sensor origin 'X Y Z' in its frame [m]; empty: from the cloud "
+       "(sensor_frame, or its file's VIEWPOINT) (preprocess/sensor_origin.h)"});
+    f("current_origin", current_origin,
+      {"the current sweep's sensor origin 'X Y Z' [m] for the command-line tool; empty: from "
+       "the cloud (ROS sweeps take it from tf)"});
+    f("sensor_frame", sensor_frame,
+      {"each cloud given without a stated origin is in its own sensor's frame: the sensor is "
+       "its origin (a sensor-frame file or bag; organised clouds are taken so anyway)"});
     f("max_points", max_points, {"sweeps with more points are refused", 1, 100000000});
     f("min_range_m", min_range_m,
       {"returns closer than this to their sensor are dropped from both clouds (0: none) [m]", 0.0,

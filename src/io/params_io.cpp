@@ -36,6 +36,9 @@ std::string valueToString(const T& value) {
       s.insert(e, ".0");
     }
     return s;
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    if (value.empty()) return "\"\"";  // not YAML's null
+    out << value;
   } else {
     out << value;
   }
@@ -87,6 +90,12 @@ void applyYaml(const YAML::Node& root, const std::string& where, Params& out) {
     const YAML::Node node = g[name];
     if (!node) return;
     try {
+      if constexpr (std::is_same_v<T, std::string>) {
+        if (node.IsNull()) {  // `key:` or `key: ~`: not set
+          value.clear();
+          return;
+        }
+      }
       value = node.as<T>();
     } catch (const YAML::Exception&) {
       throw std::invalid_argument(where + ": parameter " + group + "/" + name +

@@ -17,6 +17,8 @@
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/preprocess/input_check.h"
+#include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/ros_params.h"
@@ -35,13 +37,13 @@ const char* reasonName(tf2_ros::filter_failure_reasons::FilterFailureReason reas
   }
 }
 
-/// Box of the finite points; false when there is none.
+/// Box of the usable points (finite, within kMaxCoordinateM); false when there is none.
 bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
   lo.setConstant(std::numeric_limits<double>::infinity());
   hi = -lo;
   bool any = false;
   for (const auto& p : cloud) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    if (!usablePoint(p)) continue;
     const Eigen::Vector3d v(p.x, p.y, p.z);
     lo = lo.cwiseMin(v);
     hi = hi.cwiseMax(v);
@@ -217,10 +219,22 @@ void NoveltyDetectorNodelet::workerLoop() {
   }
 }
 
+Cloud NoveltyDetectorNodelet::referenceFromFile(const CloudFile& file) const {
+  Cloud cloud = withViewpoint(file);
+  const std::string how = resolveOrigin(
+      cloud, parseOrigin("preprocess/reference_origin", params_.preprocess.reference_origin),
+      params_.preprocess.sensor_frame);
+  if (how == "unknown")
+    NODELET_WARN(
+        "the reference file has no viewpoint: visibility and disappearances are off; set "
+        "~preprocess/reference_origin or ~preprocess/sensor_frame");
+  return cloud;
+}
+
 void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
   try {
     const CloudFile file = loadCloudFile(path);
-    reference_->setMap(withViewpoint(file));
+    reference_->setMap(referenceFromFile(file));
     NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
   } catch (const std::exception& e) {
     NODELET_ERROR("cannot use reference file: %s", e.what());
@@ -394,6 +408,8 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
                 << result.alignment.fitness_m * 1000.0 << " mm, inliers "
                 << result.alignment.inlier_fraction << ", " << result.alignment.ms << " ms";
     }
+    for (const std::string& w : result.warnings)
+      NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep at %.3f: %s", header.stamp.toSec(), w.c_str());
     NODELET_DEBUG("sweep at %.3f: %s in %.1f ms", header.stamp.toSec(), summary.str().c_str(), ms);
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++processed_;

@@ -31,7 +31,7 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     const CloudFile file = loadCloudFile(req.path);
-    reference_->setMap(withViewpoint(file));
+    reference_->setMap(referenceFromFile(file));
     res.success = true;
     res.message =
         "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) + " points)";

@@ -251,5 +251,31 @@ TEST(NoveltyDetectCli, OriginAndUpFlags) {
   EXPECT_EQ(runCli(files + (dir / "x").string() + " --up 0 0 0", dir).code >> 8, 2);
   EXPECT_EQ(runCli(files + (dir / "x").string() + " --up nan 0 1", dir).code >> 8, 2);
   EXPECT_EQ(runCli("--help", dir).code, 0);
+  // The same origins from a configuration file; a flag overrides the file.
+  {
+    std::ofstream yaml(dir / "origins.yaml");
+    yaml << "preprocess:\n  reference_origin: \"" << origin(s.T_world_sensor_reference)
+         << "\"\n  current_origin: \"" << origin(s.T_world_sensor_current) << "\"\n";
+  }
+  const CliRun configured =
+      runCli(files + (dir / "configured").string() + " --config " +
+                 (dir / "origins.yaml").string() + " --current-origin 0 0 0.5",
+             dir);
+  ASSERT_EQ(configured.code, 0) << configured.err;
+  std::ifstream cfile(dir / "configured" / "report.json");
+  const auto rc = nlohmann::json::parse(cfile);
+  EXPECT_TRUE(rc["visibility_checked"].get<bool>());
+  EXPECT_EQ(rc["sensor_origins"]["reference"]["from"], "given");
+  EXPECT_NEAR(rc["sensor_origins"]["reference"]["position"][1].get<double>(),
+              s.T_world_sensor_reference.translation().y(), 1e-4);
+  EXPECT_NEAR(rc["sensor_origins"]["current"]["position"][2].get<double>(), 0.5, 1e-6);
+  {
+    std::ofstream yaml(dir / "bad.yaml");
+    yaml << "preprocess:\n  reference_origin: \"1 2\"\n";
+  }
+  const CliRun bad =
+      runCli(files + (dir / "x").string() + " --config " + (dir / "bad.yaml").string(), dir);
+  EXPECT_EQ(bad.code >> 8, 1);
+  EXPECT_NE(bad.err.find("preprocess/reference_origin"), std::string::npos) << bad.err;
   fs::remove_all(dir);
 }

@@ -23,6 +23,7 @@
 #include "novelty_detection/DetectorConfig.h"
 #include "novelty_detection/SaveReference.h"
 #include "novelty_detection/SetReference.h"
+#include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/params.h"
 #include "novelty_detection/ros/node_params.h"
 #include "novelty_detection/ros/tiled_reference.h"
@@ -64,6 +65,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   /// frame when it is not the fixed frame) at `stamp`; leaves them when tf cannot tell.
   void setSensorPose(Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
   void loadReferenceFile(const std::string& path);
+  /// A reference file's cloud with its sensor origin: preprocess/reference_origin if set,
+  /// else (0, 0, 0) with preprocess/sensor_frame, else the file's viewpoint.
+  Cloud referenceFromFile(const CloudFile& file) const;
 
   bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSetReference(SetReference::Request& req, SetReference::Response& res);
