@@ -1,5 +1,6 @@
 #include "novelty_detection/params.h"
 
+#include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/preprocess/up_direction.h"
 
@@ -46,6 +47,7 @@ void PreprocessParams::validate() const {
   parseUp(up);  // throws naming preprocess/up
   parseOrigin("preprocess/reference_origin", reference_origin);
   parseOrigin("preprocess/current_origin", current_origin);
+  parseBodyBox(body_box);
   validateRanges("preprocess", *this);
 }
 

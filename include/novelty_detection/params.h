@@ -34,6 +34,7 @@ struct PreprocessParams {
   bool sensor_frame = false;
   int max_points = 2000000;
   double min_range_m = 0.0;
+  std::string body_box;
   bool self_filter = true;
   double self_max_range_m = 1.5;
   bool outlier_removal = true;
@@ -69,6 +70,10 @@ struct PreprocessParams {
     f("min_range_m", min_range_m,
       {"returns closer than this to their sensor are dropped from both clouds (0: none) [m]", 0.0,
        100.0});
+    f("body_box", body_box,
+      {"the robot's body as a box in the sensor's frame, 'xmin ymin zmin xmax ymax zmax' [m]: "
+       "returns inside it are dropped from both clouds (the robot_self_filter idea with one "
+       "box); empty: none"});
     f("self_filter", self_filter,
       {"drop the robot's own returns: points within self_max_range_m of their sensor that lie "
        "at the same place in the sensor's frame in both sweeps (needs both sensor origins; "

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
+#include <stdexcept>
 
 namespace novelty_detection {
 namespace {
@@ -13,9 +15,10 @@ bool finitePoint(const PointT& p) {
 }
 
 /// The points of `cloud` within max_range of its sensor, in the sensor's frame; the ones
-/// closer than min_range are marked in `mask` directly.
+/// closer than min_range or inside `body` (sensor frame) are marked in `mask` directly.
 Cloud::Ptr nearInSensorFrame(const Cloud& cloud, double min_range, double max_range,
-                             std::vector<int>* index, std::vector<std::uint8_t>* mask) {
+                             const Eigen::AlignedBox3f& body, std::vector<int>* index,
+                             std::vector<std::uint8_t>* mask) {
   const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
   const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
   Cloud::Ptr near(new Cloud);
@@ -28,8 +31,12 @@ Cloud::Ptr nearInSensorFrame(const Cloud& cloud, double min_range, double max_ra
       (*mask)[i] = 1;
       continue;
     }
-    if (r >= max_range) continue;
     const Eigen::Vector3f l = Rt * d;
+    if (!body.isEmpty() && body.contains(l)) {
+      (*mask)[i] = 1;
+      continue;
+    }
+    if (r >= max_range) continue;
     near->push_back(PointT(l.x(), l.y(), l.z()));
     index->push_back(static_cast<int>(i));
   }
@@ -73,12 +80,28 @@ void markMatches(const Cloud::Ptr& a, const std::vector<int>& a_index, const Clo
 
 }  // namespace
 
+Eigen::AlignedBox3f parseBodyBox(const std::string& text) {
+  Eigen::AlignedBox3f box;  // empty
+  if (text.find_first_not_of(" \t") == std::string::npos) return box;
+  std::istringstream in(text);
+  Eigen::Vector3f lo, hi;
+  std::string rest;
+  if (!(in >> lo.x() >> lo.y() >> lo.z() >> hi.x() >> hi.y() >> hi.z()) || (in >> rest) ||
+      !lo.allFinite() || !hi.allFinite() || (lo.array() > hi.array()).any()) {
+    throw std::invalid_argument("parameter preprocess/body_box = '" + text +
+                                "' must be empty or six numbers 'xmin ymin zmin xmax ymax zmax' "
+                                "with each min <= max [m]");
+  }
+  return Eigen::AlignedBox3f(lo, hi);
+}
+
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
-  if (!params.self_filter && params.min_range_m <= 0.0) return s;
+  const Eigen::AlignedBox3f body = parseBodyBox(params.body_box);
+  if (!params.self_filter && params.min_range_m <= 0.0 && body.isEmpty()) return s;
   if (!sensorOriginKnown(reference.sensor_origin_) || !sensorOriginKnown(current.sensor_origin_))
     return s;
   s.checked = true;
@@ -92,8 +115,9 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
   if (moved < novelty_distance_m) max_range = 0.0;
   std::vector<int> ri, ci;
   const Cloud::Ptr rn =
-      nearInSensorFrame(reference, params.min_range_m, max_range, &ri, &s.reference);
-  const Cloud::Ptr cn = nearInSensorFrame(current, params.min_range_m, max_range, &ci, &s.current);
+      nearInSensorFrame(reference, params.min_range_m, max_range, body, &ri, &s.reference);
+  const Cloud::Ptr cn =
+      nearInSensorFrame(current, params.min_range_m, max_range, body, &ci, &s.current);
   if (rn->size() >= 2 && !cn->empty()) {
     // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
     pcl::KdTreeFLANN<PointT> tree;

@@ -15,10 +15,15 @@
 // under it, a corridor wall beside it) can match in the sensor frame too, where the other
 // sweep sampled them more sparsely: they are unchanged, and dropping them loses nothing. Returns
 // closer than preprocess/min_range_m are dropped as well (the laser_filters range filter).
+// So are returns inside preprocess/body_box (a box in the sensor's frame, e.g. the base and
+// mast below a tilting laser), in either sweep, moved or not.
 // Both sensor origins must be known; otherwise nothing is marked.
 #pragma once
 
+#include <Eigen/Geometry>
+
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -37,6 +42,10 @@ struct SelfReturns {
 /// `novelty_distance_m`: when the sensor moved (plus its turn times self_max_range_m) by
 /// less than this, the robot's returns are within it of where they were and are no change:
 /// only min_range_m applies.
+/// The box of preprocess/body_box: "" gives an empty box; six numbers with min <= max on
+/// each axis give it; anything else throws std::invalid_argument naming the parameter.
+Eigen::AlignedBox3f parseBodyBox(const std::string& text);
+
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0);
 
