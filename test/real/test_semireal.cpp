@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../unit/synthetic_scene.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/semireal.h"
 #include "real_data.h"
@@ -106,4 +107,53 @@ TEST(SemiReal, EthPersonNearIsFound) {
   // (47 beams, tilt lines ~10 cm apart) it is not found yet.
   ASSERT_EQ(ious.size(), 2u);
   EXPECT_GE(*std::max_element(ious.begin(), ious.end()), 0.7);
+}
+
+// A person standing on the floor never moves the floor: a corridor sweep (floor z = 0,
+// sensor 0.6 m above it) with and without the real person ray-cast into it gives the same
+// floor plane, about as many ground points, and the person, feet included, is found.
+TEST(SemiReal, PersonOnTheFloorLeavesTheFloorAlone) {
+  REQUIRE_DATA(dataDir() / "pcl_test_indoor_scenes" / "five_people.pcd");
+  synthetic::SceneOptions o;
+  o.range_sigma_m = 0.005;
+  o.objects.clear();
+  o.seed = 1;
+  Cloud ref = synthetic::makeCorridor(o).cloud;
+  o.seed = 2;
+  Cloud cur = synthetic::makeCorridor(o).cloud;
+  const Eigen::Vector3f at = o.sensor.cast<float>();
+  setSensorOrigin(ref, at);
+  setSensorOrigin(cur, at);
+  const sim::ObjectModel person = realPerson();
+  const sim::Placement where{Eigen::Vector3d(3.0, 0.3, 0.0),
+                             0.0};  // seen side (-x) toward the sensor
+  const sim::Insertion in = sim::insertByRayCasting(cur, at, person, where);
+  ASSERT_GT(in.replaced, 150u);
+  Params p;
+  p.superquadric.enabled = false;
+  Pipeline pipeline(p);
+  pipeline.setReference(ref);
+  auto ground = [](const Result& r) {
+    std::map<std::string, std::size_t> c(r.point_counts.begin(), r.point_counts.end());
+    return static_cast<double>(c["after_outliers"]) - static_cast<double>(c["after_ground"]);
+  };
+  const Result without = pipeline.detect(cur);
+  const Result with = pipeline.detect(in.cloud);
+  ASSERT_TRUE(without.floor_found);
+  ASSERT_TRUE(with.floor_found);
+  EXPECT_NEAR(with.floor[3], without.floor[3], 0.01);
+  EXPECT_GT(with.floor.head<3>().dot(without.floor.head<3>()), std::cos(M_PI / 180.0));
+  EXPECT_NEAR(ground(with), ground(without), 0.02 * ground(without));
+  const Found f = bestSegment(with, in.truth);
+  std::size_t feet = 0, feet_found = 0;
+  for (std::size_t i = 0; i < in.truth.size(); ++i)
+    if (in.truth[i] && in.cloud[i].z > 0.05f && in.cloud[i].z < 0.5f)
+      ++feet, feet_found += with.labels[i] != 0;
+  std::printf(
+      "person in the corridor: IoU %.3f, %zu of %zu points 0.05-0.5 m above the floor "
+      "labelled, ground %.0f / %.0f points\n",
+      f.iou, feet_found, feet, ground(with), ground(without));
+  EXPECT_GE(f.iou, 0.7);
+  EXPECT_GE(feet, 20u);
+  EXPECT_GE(feet_found, feet * 7 / 10);
 }
