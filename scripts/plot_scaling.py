@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots bench/results/scaling.csv (written by the scaling tool) as a log-log PNG:
 end-to-end detection time and peak RSS against sweep points, reference-model build time
-against map points, with the issue's targets marked.
+against map points, with the speed targets marked.
 
     /usr/bin/python3 scripts/plot_scaling.py bench/results/scaling.csv bench/results/scaling.png
 """

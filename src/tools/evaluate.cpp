@@ -163,7 +163,7 @@ int evaluateSuite(const Options& o) {
       try {
         e.score = scoreLabels(readLabelFile(labels_path, static_cast<long>(gt.size())), gt);
         e.has_result = true;
-        // Shapes (issue: superquadric surface error) when both files are there.
+        // Shapes (superquadric surface error) when both files are there.
         const fs::path sq_path = fs::path(o.results) / name / "superquadrics.json";
         const fs::path cur_path = fs::path(o.suite) / name / "cur.pcd";
         if (fs::exists(sq_path) && fs::exists(cur_path)) {
