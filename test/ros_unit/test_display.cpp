@@ -6,9 +6,9 @@
 #include <map>
 #include <tuple>
 
+#include "novelty_detection/ros/node_params.h"
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/superquadric_mesh.h"
-#include "novelty_detection/ros/node_params.h"
 #include "novelty_detection/ros/tiled_reference.h"
 
 using namespace novelty_detection;
