@@ -357,9 +357,9 @@ Result Pipeline::detect(const Cloud& given) const {
   }
   const ReferenceModel& ref = *reference_;
   // Absurd coordinates are missing points; a sweep off the map is refused.
-  const std::size_t out_of_range = countOutOfRange(given);
-  const Cloud cleaned = out_of_range ? withoutOutOfRange(given) : Cloud();
-  const Cloud& input = out_of_range ? cleaned : given;
+  std::size_t out_of_range = 0;
+  Cloud cleaned;
+  const Cloud& input = usableView(given, &cleaned, &out_of_range);
   requireOverlap(input, ref.extent);
   Result result = ref.rotated ? detectInUpFrame(params_, ref, rotateCloud(input, ref.R_up))
                               : detectInUpFrame(params_, ref, input);

@@ -82,9 +82,8 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
                                                           const Cloud& given) {
   auto model = std::make_shared<ReferenceModel>();
-  model->out_of_range = countOutOfRange(given);
-  const Cloud cleaned = model->out_of_range ? withoutOutOfRange(given) : Cloud();
-  const Cloud& reference = model->out_of_range ? cleaned : given;
+  Cloud cleaned;
+  const Cloud& reference = usableView(given, &cleaned, &model->out_of_range);
   requireExtent(reference, "reference");
   model->extent = usableExtent(reference);
   model->up = resolveUp(parseUp(params.preprocess.up), reference);

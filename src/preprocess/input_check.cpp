@@ -23,6 +23,13 @@ Cloud withoutOutOfRange(const Cloud& cloud) {
   return out;
 }
 
+const Cloud& usableView(const Cloud& cloud, Cloud* storage, std::size_t* out_of_range) {
+  *out_of_range = countOutOfRange(cloud);
+  if (*out_of_range == 0) return cloud;
+  *storage = withoutOutOfRange(cloud);
+  return *storage;
+}
+
 Eigen::AlignedBox3d usableExtent(const Cloud& cloud) {
   Eigen::AlignedBox3d box;
   for (const PointT& p : cloud)

@@ -267,14 +267,15 @@ Cloud placeModel(const ObjectModel& model, const Placement& where) {
   return out;
 }
 
-Insertion insertByRayCasting(const Cloud& scan, const Eigen::Vector3f& sensor,
-                             const ObjectModel& model, const Placement& where, double hit_radius) {
+namespace {
+
+/// The beams of `scan` the placed model cuts: calls cut(i, point on the model) for each.
+template <typename Cut>
+void castInto(const Cloud& scan, const Eigen::Vector3f& sensor, const ObjectModel& model,
+              const Placement& where, double hit_radius, Cut cut) {
   if (hit_radius <= 0.0) hit_radius = 1.5 * model.spacing;
-  Insertion out;
-  out.cloud = scan;
-  out.truth.assign(scan.size(), 0);
   const Cloud placed = placeModel(model, where);
-  if (placed.empty()) return out;
+  if (placed.empty()) return;
   const Vec3 s = sensor.cast<double>();
   // Gnomonic projection about the direction to the object's centre.
   Vec3 centre = Vec3::Zero();
@@ -290,7 +291,7 @@ Insertion insertByRayCasting(const Cloud& scan, const Eigen::Vector3f& sensor,
     obj.push_back(v);
     r_min = std::min(r_min, v.norm());
   }
-  if (obj.empty()) return out;
+  if (obj.empty()) return;
   const double cell = 2.0 * hit_radius / r_min;
   std::unordered_map<Key, std::vector<std::size_t>, KeyHash> buckets;
   auto cellOf = [&](const Vec3& v) {
@@ -319,14 +320,32 @@ Insertion insertByRayCasting(const Cloud& scan, const Eigen::Vector3f& sensor,
           if ((obj[j] - t * d).norm() < hit_radius) t_hit = t, hit = true;
         }
       }
-    if (!hit) continue;
-    const Vec3 q = s + t_hit * d;
+    if (hit) cut(i, s + t_hit * d);
+  }
+}
+
+/// How many beams of `scan` the placed model cuts (no copy of the sweep).
+std::size_t beamsCut(const Cloud& scan, const Eigen::Vector3f& sensor, const ObjectModel& model,
+                     const Placement& where) {
+  std::size_t n = 0;
+  castInto(scan, sensor, model, where, 0.0, [&](std::size_t, const Vec3&) { ++n; });
+  return n;
+}
+
+}  // namespace
+
+Insertion insertByRayCasting(const Cloud& scan, const Eigen::Vector3f& sensor,
+                             const ObjectModel& model, const Placement& where, double hit_radius) {
+  Insertion out;
+  out.cloud = scan;
+  out.truth.assign(scan.size(), 0);
+  castInto(scan, sensor, model, where, hit_radius, [&](std::size_t i, const Vec3& q) {
     out.cloud[i].x = static_cast<float>(q.x());
     out.cloud[i].y = static_cast<float>(q.y());
     out.cloud[i].z = static_cast<float>(q.z());
     out.truth[i] = 1;
     ++out.replaced;
-  }
+  });
   return out;
 }
 
@@ -384,11 +403,9 @@ std::vector<Placement> freeFloorPlacements(const Cloud& current, const Eigen::Ve
     // The model's seen side (-x) toward the sensor, give or take 25 degrees.
     const double toward = std::atan2(base.y() - s.y(), base.x() - s.x());
     const Placement p{base, toward + uniform(rng, -25.0, 25.0) * M_PI / 180.0};
-    if (insertByRayCasting(current, sensor, model, p).replaced < min_points) continue;
+    if (beamsCut(current, sensor, model, p) < min_points) continue;
     // The reference's beams crossed the object's space: it was seen free there.
-    if (insertByRayCasting(reference, reference.sensor_origin_.head<3>(), model, p).replaced <
-        min_points)
-      continue;
+    if (beamsCut(reference, reference.sensor_origin_.head<3>(), model, p) < min_points) continue;
     out.push_back(p);
   }
   return out;

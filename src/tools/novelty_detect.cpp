@@ -290,18 +290,14 @@ int run(const Args& args) {
   // The flags override the configuration (preprocess/reference_origin, current_origin,
   // sensor_frame), which overrides the files' VIEWPOINT.
   const bool sensor_frame = args.sensor_frame || params.preprocess.sensor_frame;
-  as.reference_origin = nd::resolveOrigin(
-      reference,
-      args.reference_origin
-          ? args.reference_origin
-          : nd::parseOrigin("preprocess/reference_origin", params.preprocess.reference_origin),
-      sensor_frame);
-  as.current_origin = nd::resolveOrigin(
-      current,
-      args.current_origin
-          ? args.current_origin
-          : nd::parseOrigin("preprocess/current_origin", params.preprocess.current_origin),
-      sensor_frame);
+  auto origin = [&](nd::Cloud& cloud, const std::optional<Eigen::Vector3f>& flag, const char* param,
+                    const std::string& configured) {
+    return nd::resolveOrigin(cloud, flag ? flag : nd::parseOrigin(param, configured), sensor_frame);
+  };
+  as.reference_origin = origin(reference, args.reference_origin, "preprocess/reference_origin",
+                               params.preprocess.reference_origin);
+  as.current_origin = origin(current, args.current_origin, "preprocess/current_origin",
+                             params.preprocess.current_origin);
   as.reference = &reference;
   as.current = &current;
   as.visibility_checked =

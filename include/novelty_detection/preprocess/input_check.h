@@ -34,6 +34,10 @@ std::size_t countOutOfRange(const Cloud& cloud);
 /// A copy of `cloud` with its out-of-range points made NaN (same size and order).
 Cloud withoutOutOfRange(const Cloud& cloud);
 
+/// `cloud` itself when every finite point is usable, else withoutOutOfRange(cloud) kept in
+/// `storage`; `out_of_range` gets the count.
+const Cloud& usableView(const Cloud& cloud, Cloud* storage, std::size_t* out_of_range);
+
 /// Box of the usable points (empty box when there is none).
 Eigen::AlignedBox3d usableExtent(const Cloud& cloud);
 
