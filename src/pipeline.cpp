@@ -225,7 +225,8 @@ void addHiddenNovelties(Detection& d) {
     d.timer.lap("hidden_segments");
   }
   if (d.params.segmentation.hidden.continuations && !cand.hidden.empty()) {
-    growIntoHidden(*d.current, &d.pieces, cand.hidden, d.link_radius);
+    growIntoHidden(*d.current, &d.pieces, cand.hidden, d.link_radius,
+                   d.params.segmentation.hidden.max_growth);
     d.timer.lap("hidden_continuations");
   }
   for (std::size_t k = 0; k < cand.hidden.size(); ++k)

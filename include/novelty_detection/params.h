@@ -211,6 +211,7 @@ struct HiddenParams {
   bool unexplained = false;
   bool segments = true;
   bool continuations = true;
+  double max_growth = 1.0;
   double ring_factor = 4.0;
   double plane_factor = 0.5;
   double max_coplanar = 0.25;
@@ -231,6 +232,11 @@ struct HiddenParams {
       {"candidates hidden from the map that are linked to a novel segment (closer than the "
        "segments' link radius, directly or through each other) join it: a moved object "
        "reaching into the map's shadow is one object (hidden_segments.h)"});
+    f("hidden_max_growth", max_growth,
+      {"continuations add at most hidden_max_growth times a segment's own points, nearest "
+       "links first: the part the map saw is the evidence for the part it could not see, and a "
+       "segment does not run on through a whole newly seen room",
+       0.0, 1000.0});
     f("hidden_ring_factor", ring_factor,
       {"hidden segments: reference structure (no ground, not disappeared) within "
        "hidden_ring_factor * tau of the segment is what it could continue",

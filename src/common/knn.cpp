@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 namespace novelty_detection {
@@ -114,7 +115,8 @@ void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, in
   }
 }
 
-std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
+template <class Reduce>
+std::vector<double> KnnTree::forEachNeighbourhood(int k, Reduce reduce) const {
   const int n = static_cast<int>(x_.size());
   std::vector<double> out(n, 0.0);
   k = std::min(k, n - 1);
@@ -142,11 +144,32 @@ std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
         if (inside > 0.f && inside * inside >= d2[k - 1]) break;
       }
     }
-    double sum = 0.0;
-    for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
-    out[id_[t]] = sum / count;
+    out[id_[t]] = reduce(d2.data(), count);
   }
   return out;
+}
+
+std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
+  return forEachNeighbourhood(k, [](const float* d2, int count) {
+    double sum = 0.0;
+    for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
+    return sum / count;
+  });
+}
+
+double KnnTree::nearestDistance(const Eigen::Vector3f& p) const {
+  if (nodes_.empty()) return std::numeric_limits<double>::infinity();
+  const float q[3] = {p.x(), p.y(), p.z()};
+  float d2 = 0.f;
+  int count = 0;
+  search(0, q, -1, 1, &d2, &count);  // node 0 is the root; -1: no point is the query itself
+  return count ? std::sqrt(static_cast<double>(d2)) : std::numeric_limits<double>::infinity();
+}
+
+std::vector<double> KnnTree::kthNeighbourDistances(int k) const {
+  return forEachNeighbourhood(k, [](const float* d2, int count) {
+    return std::sqrt(static_cast<double>(d2[count - 1]));  // d2 is sorted ascending
+  });
 }
 
 }  // namespace detail

@@ -21,6 +21,13 @@ class KnnTree {
   /// clamped to size - 1; 0 when the tree has a single point). Exact.
   std::vector<double> meanNeighbourDistances(int k) const;
 
+  /// For every point, the distance to its k-th nearest OTHER point (k clamped as above; 0
+  /// when the tree has a single point). Exact.
+  std::vector<double> kthNeighbourDistances(int k) const;
+
+  /// The distance from `p` (any point) to the nearest indexed point; infinity when empty.
+  double nearestDistance(const Eigen::Vector3f& p) const;
+
  private:
   struct Node {
     float lo[3], hi[3];  ///< bounding box
@@ -29,6 +36,10 @@ class KnnTree {
   };
   static constexpr int kLeafSize = 16;
 
+  /// Runs the k-nearest search for every point and stores reduce(sorted squared distances,
+  /// count) at the point's input position.
+  template <class Reduce>
+  std::vector<double> forEachNeighbourhood(int k, Reduce reduce) const;
   void search(int node, const float* q, int self, int k, float* d2, int* count) const;
 
   std::vector<float> x_, y_, z_;  ///< coordinates in tree order

@@ -1,11 +1,11 @@
 #include "novelty_detection/preprocess/self_returns.h"
 
-#include <pcl/kdtree/kdtree_flann.h>
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+
+#include "common/knn.h"
 
 namespace novelty_detection {
 namespace {
@@ -14,14 +14,16 @@ bool finitePoint(const PointT& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
 }
 
+using Points = std::vector<Eigen::Vector3f>;
+
 /// The points of `cloud` within max_range of its sensor, in the sensor's frame; the ones
 /// closer than min_range or inside `body` (sensor frame) are marked in `mask` directly.
-Cloud::Ptr nearInSensorFrame(const Cloud& cloud, double min_range, double max_range,
-                             const Eigen::AlignedBox3f& body, std::vector<int>* index,
-                             std::vector<std::uint8_t>* mask) {
+Points nearInSensorFrame(const Cloud& cloud, double min_range, double max_range,
+                         const Eigen::AlignedBox3f& body, std::vector<int>* index,
+                         std::vector<std::uint8_t>* mask) {
   const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
   const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
-  Cloud::Ptr near(new Cloud);
+  Points near;
   mask->assign(cloud.size(), 0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     if (!finitePoint(cloud[i])) continue;
@@ -37,45 +39,57 @@ Cloud::Ptr nearInSensorFrame(const Cloud& cloud, double min_range, double max_ra
       continue;
     }
     if (r >= max_range) continue;
-    near->push_back(PointT(l.x(), l.y(), l.z()));
+    near.push_back(l);
     index->push_back(static_cast<int>(i));
   }
   return near;
 }
 
-/// The points of `cloud` within `radius` of `centre` (map frame), indexed.
-struct Around {
-  Cloud::Ptr points{new Cloud};
-  pcl::KdTreeFLANN<PointT> tree;
-  Around(const Cloud& cloud, const Eigen::Vector3f& centre, double radius) {
-    for (const auto& p : cloud)
-      if (finitePoint(p) && (p.getVector3fMap() - centre).norm() < radius) points->push_back(p);
-    if (!points->empty()) tree.setInputCloud(points);
-  }
-  /// Whether this cloud has a point within tol of `p` (map frame).
-  bool matches(const PointT& p, double tol) {
-    if (points->empty()) return false;
-    std::vector<int> nn(1);
-    std::vector<float> d2(1);
-    return tree.nearestKSearch(p, 1, nn, d2) == 1 && d2[0] <= tol * tol;
-  }
-};
+/// The finite points of `cloud` (map frame).
+Points finitePoints(const Cloud& cloud) {
+  Points out;
+  out.reserve(cloud.size());
+  for (const auto& p : cloud)
+    if (finitePoint(p)) out.push_back(p.getVector3fMap());
+  return out;
+}
 
-/// Marks the points of `a` (sensor frame; a_index into `cloud`) within tol of a point of `b`
-/// (the other sweep's sensor frame) that have no point of `other` within map_tol (map frame).
-void markMatches(const Cloud::Ptr& a, const std::vector<int>& a_index, const Cloud::Ptr& b,
-                 double tol, double map_tol, const Cloud& cloud, Around& other,
-                 std::vector<std::uint8_t>* mask) {
-  if (a->empty() || b->empty()) return;
-  pcl::KdTreeFLANN<PointT> tree;
-  tree.setInputCloud(b);
-  std::vector<int> nn(1);
-  std::vector<float> d2(1);
-  const float tol2 = static_cast<float>(tol * tol);
-  for (std::size_t k = 0; k < a->size(); ++k)
-    if (tree.nearestKSearch((*a)[k], 1, nn, d2) == 1 && d2[0] <= tol2 &&
-        !other.matches(cloud[a_index[k]], map_tol))
-      (*mask)[a_index[k]] = 1;
+/// Neighbours that set a point's own sampling scale: the distance to the k-th nearest point of
+/// its own sweep (sensor frame) is the spacing of the beams that hit the surface around it,
+/// whatever the sensor's resolution, the surface's range and slant, or a sub-sampling did.
+constexpr int kSpacingNeighbours = 16;
+
+/// How many of a point's own sampling spacings (kSpacingNeighbours) its match in the other
+/// sweep may lie away: two samplings of one surface by other beams are that far apart where
+/// the surface is sampled sparsely (a slanted part of the robot, a sub-sampled cloud).
+constexpr double kSpacingFactor = 3.0;
+
+/// How much better the robot's frame must explain such a point than the map does.
+constexpr double kFrameRatio = 2.0;
+
+/// Marks the points of `a` (sensor frame; a_index into `cloud`) that the robot's frame
+/// explains and the map does not, with d_s the distance to the nearest point of `b` (the other
+/// sweep's sensor frame) and d_m the distance to the nearest point of `other` (the other
+/// sweep, map frame):
+///  - d_s <= tol < d_m: within the common tolerance of the robot's frame, not of the map's;
+///  - or d_s <= kSpacingFactor * (the point's own sampling spacing) and d_m beyond both the
+///    novelty distance and kFrameRatio * d_s: a sparsely sampled part of the robot, seen on
+///    other beams in the two sweeps, that the map cannot explain (it would be a novelty).
+/// Points the map explains within the novelty distance are left to the second rule's first
+/// test only, so static surfaces keep their share in the sweep.
+void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& b,
+                 double tol, double novelty_distance, const Cloud& cloud,
+                 const detail::KnnTree& other, std::vector<std::uint8_t>* mask) {
+  if (a.size() < 2) return;
+  const std::vector<double> spacing = detail::KnnTree(a).kthNeighbourDistances(kSpacingNeighbours);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double ds = b.nearestDistance(a[i]);
+    if (!(ds <= std::max(tol, kSpacingFactor * spacing[i]))) continue;
+    const double dm = other.nearestDistance(cloud[a_index[i]].getVector3fMap());
+    const bool plain = ds <= tol && dm > tol;
+    const bool sparse = dm > std::max(novelty_distance, kFrameRatio * ds);
+    if (plain || sparse) (*mask)[a_index[i]] = 1;
+  }
 }
 
 }  // namespace
@@ -114,31 +128,21 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                       current.sensor_orientation_.normalized());
   if (moved < novelty_distance_m) max_range = 0.0;
   std::vector<int> ri, ci;
-  const Cloud::Ptr rn =
+  const Points rn =
       nearInSensorFrame(reference, params.min_range_m, max_range, body, &ri, &s.reference);
-  const Cloud::Ptr cn =
+  const Points cn =
       nearInSensorFrame(current, params.min_range_m, max_range, body, &ci, &s.current);
-  if (rn->size() >= 2 && !cn->empty()) {
+  if (rn.size() >= 2 && cn.size() >= 2) {
     // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
-    pcl::KdTreeFLANN<PointT> tree;
-    tree.setInputCloud(rn);
-    std::vector<float> spacing;
-    std::vector<int> nn(2);
-    std::vector<float> d2(2);
-    const std::size_t stride = std::max<std::size_t>(1, rn->size() / 2000);
-    for (std::size_t k = 0; k < rn->size(); k += stride)
-      if (tree.nearestKSearch((*rn)[k], 2, nn, d2) == 2) spacing.push_back(std::sqrt(d2[1]));
-    if (!spacing.empty()) {
-      std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
-      s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
-      const double tol = s.tolerance_m;
-      const double map_tol = tol;
-      const double reach = max_range + map_tol;
-      Around reference_around(reference, current.sensor_origin_.head<3>(), reach);
-      Around current_around(current, reference.sensor_origin_.head<3>(), reach);
-      markMatches(cn, ci, rn, tol, map_tol, current, reference_around, &s.current);
-      markMatches(rn, ri, cn, tol, map_tol, reference, current_around, &s.reference);
-    }
+    const detail::KnnTree rn_tree(rn), cn_tree(cn);
+    std::vector<double> spacing = rn_tree.kthNeighbourDistances(1);
+    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+    s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
+    const detail::KnnTree reference_map(finitePoints(reference)),
+        current_map(finitePoints(current));
+    const double nd = std::max(0.0, novelty_distance_m);
+    markMatches(cn, ci, rn_tree, s.tolerance_m, nd, current, reference_map, &s.current);
+    markMatches(rn, ri, cn_tree, s.tolerance_m, nd, reference, current_map, &s.reference);
   }
   for (auto m : s.current) s.current_count += m;
   for (auto m : s.reference) s.reference_count += m;

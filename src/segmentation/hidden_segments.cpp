@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <set>
 #include <tuple>
 
@@ -227,7 +228,7 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 }
 
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m) {
+                    double link_radius_m, double max_growth) {
   if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
       !std::isfinite(link_radius_m)) {
     return;
@@ -246,16 +247,16 @@ void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const 
   const PointGrid grid(pts, link_radius_m);
   std::vector<char> used(free.size(), 0);
   for (Indices& seg : *segments) {
-    // Breadth-first from the segment's points through the free hidden candidates.
-    std::vector<Eigen::Vector3d> frontier;
-    frontier.reserve(seg.size());
+    // Breadth first from the segment's points (nearest links first), up to the cap.
+    const std::size_t cap = static_cast<std::size_t>(max_growth * static_cast<double>(seg.size()));
+    std::deque<Eigen::Vector3d> frontier;
     for (int i : seg) frontier.push_back(current[i].getVector3fMap().cast<double>());
     Indices added;
-    while (!frontier.empty()) {
-      const Eigen::Vector3d p = frontier.back();
-      frontier.pop_back();
+    while (!frontier.empty() && added.size() < cap) {
+      const Eigen::Vector3d p = frontier.front();
+      frontier.pop_front();
       grid.forNeighbours(p, link_radius_m, [&](int k) {
-        if (used[static_cast<std::size_t>(k)]) return;
+        if (used[static_cast<std::size_t>(k)] || added.size() >= cap) return;
         used[static_cast<std::size_t>(k)] = 1;
         added.push_back(free[static_cast<std::size_t>(k)]);
         frontier.push_back(pts[static_cast<std::size_t>(k)]);

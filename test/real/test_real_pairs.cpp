@@ -9,6 +9,7 @@
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -55,6 +56,27 @@ void printRow(const std::string& pair, const std::string& how, const SceneScore&
   std::printf("| %s | %s | %.3f | %.3f | %.3f | %zu | (%.2f, %.2f, %.2f) %s |\n", pair.c_str(),
               how.c_str(), s.precision, s.recall, s.f1, segments, r.up.x(), r.up.y(), r.up.z(),
               r.up_source.c_str());
+}
+
+/// With NOVELTY_REAL_OUT set, writes the pair and its labels there for scripts/plot_flags.py:
+/// "o x y z" per sensor origin (reference, current), "r x y z" per reference point and
+/// "c x y z label" per current point (finite points only).
+void writeFlags(const std::string& name, const Cloud& ref, const Cloud& cur,
+                const std::vector<int>& labels) {
+  const char* dir = std::getenv("NOVELTY_REAL_OUT");
+  if (!dir || !*dir) return;
+  fs::create_directories(dir);
+  std::FILE* f = std::fopen((fs::path(dir) / name).string().c_str(), "w");
+  ASSERT_NE(f, nullptr) << "cannot write into NOVELTY_REAL_OUT=" << dir;
+  for (const Cloud* c : {&ref, &cur})
+    std::fprintf(f, "o %.4f %.4f %.4f\n", c->sensor_origin_.x(), c->sensor_origin_.y(),
+                 c->sensor_origin_.z());
+  for (const auto& p : ref)
+    if (std::isfinite(p.x)) std::fprintf(f, "r %.4f %.4f %.4f\n", p.x, p.y, p.z);
+  for (std::size_t i = 0; i < cur.size(); ++i)
+    if (std::isfinite(cur[i].x))
+      std::fprintf(f, "c %.4f %.4f %.4f %d\n", cur[i].x, cur[i].y, cur[i].z, labels[i]);
+  std::fclose(f);
 }
 
 struct KinectCase {
@@ -139,12 +161,16 @@ TEST(EthApartment, UnchangedPairFlagsLittle) {
                   seg.id, seg.indices.size(), seg.centroid.x(), seg.centroid.y(), seg.centroid.z(),
                   (seg.centroid - origin.cast<double>()).norm());
     EXPECT_GT(r.up.z(), 0.99) << up;
-    // The pair holds a few small real differences (about 1 % where the reference's beams
-    // passed through). Measured: 1.67 % novel, 480 points within 1 m of the sensor (parts of
-    // the robot the self-return rule does not match); bounds a little above as regression
-    // guards, the target (at most 1.5 %, nothing on the robot) not reached yet.
-    EXPECT_LE(share, 0.02) << up;
-    EXPECT_LE(near_sensor, 600u) << up;
+    // The pair holds a few small real differences where the reference's beams passed through
+    // (a doorway edge, a shelf edge, a low rail). Measured: 0.77 % novel in 3 segments, the
+    // nearest 0.8 m from the sensor; the robot's own returns (within 0.5 m) are not reported.
+    EXPECT_LE(share, 0.015) << up;
+    for (const Segment& seg : r.segments) {
+      std::size_t on_robot = 0;
+      for (int i : seg.indices) on_robot += (cur[i].getVector3fMap() - origin).norm() < 0.5f;
+      EXPECT_LT(on_robot, seg.indices.size() / 4) << "segment " << seg.id << " is on the robot";
+    }
+    if (up == "0 0 1") writeFlags("eth_flags.txt", ref, cur, r.labels);
   }
 }
 

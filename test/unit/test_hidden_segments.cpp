@@ -174,3 +174,25 @@ TEST(HiddenSegments, MovedObjectReachingIntoTheShadowIsOneSegment) {
   EXPECT_EQ(revealed_novel, 0);
   EXPECT_EQ(ra.segments.size(), 1u);
 }
+
+// Continuations grow breadth first from the segment and add at most max_growth times its own
+// points: a 20-point segment at the start of a 200-point chain of hidden candidates (1 cm
+// apart, link radius 1.5 cm) takes the 20 nearest with the default cap, all with a large
+// one, none with 0.
+TEST(HiddenSegments, ContinuationsGrowNearestFirstUpToTheCap) {
+  Cloud cloud;
+  for (int k = 0; k < 220; ++k) cloud.push_back(PointT(0.01f * k, 0.f, 0.f));
+  Indices seed, hidden;
+  for (int k = 0; k < 20; ++k) seed.push_back(k);
+  for (int k = 20; k < 220; ++k) hidden.push_back(k);
+  auto grow = [&](double cap) {
+    std::vector<Indices> segments{seed};
+    growIntoHidden(cloud, &segments, hidden, 0.015, cap);
+    return segments[0];
+  };
+  const Indices capped = grow(1.0);
+  ASSERT_EQ(capped.size(), 40u);
+  for (int k = 0; k < 40; ++k) EXPECT_EQ(capped[k], k);  // the nearest links, in order
+  EXPECT_EQ(grow(1000.0).size(), 220u);
+  EXPECT_EQ(grow(0.0).size(), 20u);
+}

@@ -102,8 +102,9 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 /// candidates of `hidden` (ascending indices into `current`, as above) that are in no
 /// segment and are linked to a segment's points (closer than `link_radius_m`, directly or
 /// through other such candidates) join that segment (segments in order, each kept
-/// ascending).
+/// ascending), breadth first from the segment's points, and at most `max_growth` times the
+/// segment's own points.
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m);
+                    double link_radius_m, double max_growth = 1.0);
 
 }  // namespace novelty_detection
