@@ -2,8 +2,9 @@
 # The real-data tables: the real-scan pairs of test/real (Kinect tabletop pairs with labels,
 # the ETH apartment laser pair) and the semi-real scenes (an object ray-cast into a real
 # sweep), run with the defaults and the stated sensor origins and up,
-# printed as Markdown with the commit. Needs the real-scan data set (NOVELTY_REAL_DATA, see
-# scripts/common.sh) and a build (scripts/build.sh).
+# printed as Markdown with the commit, and the picture of what is flagged on the unchanged
+# ETH pair (docs/images/eth_flags.png, with python3-matplotlib). Needs the real-scan data set
+# (NOVELTY_REAL_DATA, see scripts/common.sh) and a build (scripts/build.sh).
 #   bash scripts/evaluate_real.sh
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -18,7 +19,18 @@ echo "|---|---|---:|---:|---:|---:|---|"
 echo
 echo "| pair | origins and up | result |"
 echo "|---|---|---|"
-"$BIN" 2>/dev/null | grep '^| eth' || true
+FLAGS="$(mktemp -d)"
+trap 'rm -rf "$FLAGS"' EXIT
+NOVELTY_REAL_OUT="$FLAGS" "$BIN" --gtest_filter='Eth*' 2>/dev/null | grep '^| eth' || true
+if /usr/bin/python3 -c "import matplotlib" 2>/dev/null && [ -f "$FLAGS/eth_flags.txt" ]; then
+  mkdir -p "$REPO/docs/images"
+  /usr/bin/python3 "$REPO/scripts/plot_flags.py" "$FLAGS/eth_flags.txt" \
+    "$REPO/docs/images/eth_flags.png" \
+    "ETH apartment, unchanged pair (published registration): what is flagged"
+  log "picture: docs/images/eth_flags.png"
+else
+  log "python3-matplotlib missing: no docs/images/eth_flags.png"
+fi
 SEMI="$WS/devel/lib/novelty_detection/test_semireal"
 [ -x "$SEMI" ] || bash "$REPO/scripts/build.sh" test_semireal
 echo
