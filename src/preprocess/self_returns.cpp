@@ -67,21 +67,20 @@ constexpr double kSpacingFactor = 3.0;
 /// How much better the robot's frame must explain such a point than the map does.
 constexpr double kFrameRatio = 2.0;
 
-/// Marks the points of `a` (sensor frame; a_index into `cloud`) that the robot's frame
-/// explains and the map does not, with d_s the distance to the nearest point of `b` (the other
-/// sweep's sensor frame) and d_m the distance to the nearest point of `other` (the other
-/// sweep, map frame):
+/// Marks the points of `a` (sensor frame, indexed by `own`; a_index into `cloud`) that the
+/// robot's frame explains and the map does not, with d_s the distance to the nearest point of
+/// `b` (the other sweep's sensor frame) and d_m the distance to the nearest point of `other`
+/// (the other sweep, map frame):
 ///  - d_s <= tol < d_m: within the common tolerance of the robot's frame, not of the map's;
 ///  - or d_s <= kSpacingFactor * (the point's own sampling spacing) and d_m beyond both the
 ///    novelty distance and kFrameRatio * d_s: a sparsely sampled part of the robot, seen on
 ///    other beams in the two sweeps, that the map cannot explain (it would be a novelty).
-/// Points the map explains within the novelty distance are left to the second rule's first
-/// test only, so static surfaces keep their share in the sweep.
-void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& b,
-                 double tol, double novelty_distance, const Cloud& cloud,
+/// Points the map explains within the novelty distance are left to the first rule alone, so
+/// static surfaces keep their share in the sweep.
+void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& own,
+                 const detail::KnnTree& b, double tol, double novelty_distance, const Cloud& cloud,
                  const detail::KnnTree& other, std::vector<std::uint8_t>* mask) {
-  if (a.size() < 2) return;
-  const std::vector<double> spacing = detail::KnnTree(a).kthNeighbourDistances(kSpacingNeighbours);
+  const std::vector<double> spacing = own.kthNeighbourDistances(kSpacingNeighbours);
   for (std::size_t i = 0; i < a.size(); ++i) {
     const double ds = b.nearestDistance(a[i]);
     if (!(ds <= std::max(tol, kSpacingFactor * spacing[i]))) continue;
@@ -141,8 +140,8 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     const detail::KnnTree reference_map(finitePoints(reference)),
         current_map(finitePoints(current));
     const double nd = std::max(0.0, novelty_distance_m);
-    markMatches(cn, ci, rn_tree, s.tolerance_m, nd, current, reference_map, &s.current);
-    markMatches(rn, ri, cn_tree, s.tolerance_m, nd, reference, current_map, &s.reference);
+    markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, reference_map, &s.current);
+    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, current_map, &s.reference);
   }
   for (auto m : s.current) s.current_count += m;
   for (auto m : s.reference) s.reference_count += m;

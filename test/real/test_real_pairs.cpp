@@ -149,12 +149,15 @@ TEST(EthApartment, UnchangedPairFlagsLittle) {
       near_sensor += (cur[i].getVector3fMap() - origin).norm() < 1.0f;
     }
     const double share = static_cast<double>(novel) / cur.size();
+    std::size_t self_returns = 0;
+    for (const auto& [stage, n] : r.point_counts)
+      if (stage == "self_returns") self_returns = n;
     std::printf(
         "| eth cloud_0 -> cloud_1 | sensor frames, published transform, up %s | %.2f %% of %zu "
-        "points novel, %zu within 1 m of the sensor; %zu segments; up (%.2f, %.2f, %.2f) %s; "
-        "floor %s |\n",
-        up.c_str(), 100.0 * share, cur.size(), near_sensor, r.segments.size(), r.up.x(), r.up.y(),
-        r.up.z(), r.up_source.c_str(), r.floor_found ? "found" : "none");
+        "points novel, %zu within 1 m of the sensor; %zu segments; %zu points dropped as the "
+        "robot's own returns; up (%.2f, %.2f, %.2f) %s; floor %s |\n",
+        up.c_str(), 100.0 * share, cur.size(), near_sensor, r.segments.size(), self_returns,
+        r.up.x(), r.up.y(), r.up.z(), r.up_source.c_str(), r.floor_found ? "found" : "none");
     for (const auto& [stage, n] : r.point_counts) std::printf("  %s %zu\n", stage.c_str(), n);
     for (const Segment& seg : r.segments)
       std::printf("  segment %d: %zu points at (%.2f, %.2f, %.2f), %.2f m from the sensor\n",

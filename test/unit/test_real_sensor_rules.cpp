@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "novelty_detection/alignment/alignment.h"
@@ -35,6 +36,50 @@ synthetic::Scene corridor(unsigned seed) {
   o.seed = seed;
   o.range_sigma_m = 0.01;
   return synthetic::makeCorridor(o);
+}
+
+/// A corridor sweep from `at` (5 mm range noise, `objects` on the floor) with a part of the
+/// robot appended: `part()` gives its points; their indices go to `indices`. The sensor origin
+/// is stated.
+template <class Part>
+Cloud sweepWithRobotPart(const Eigen::Vector3d& at, unsigned seed, Part part,
+                         std::vector<int>* indices,
+                         std::vector<synthetic::AlignedBox> objects = {}) {
+  synthetic::SceneOptions o;
+  o.seed = seed;
+  o.range_sigma_m = 0.005;
+  o.sensor = at;
+  o.objects = objects;
+  synthetic::Scene s = synthetic::makeCorridor(o);
+  for (const PointT& q : part()) {
+    indices->push_back(static_cast<int>(s.cloud.size()));
+    s.cloud.push_back(q);
+  }
+  setSensorOrigin(s.cloud, at.cast<float>());
+  return s.cloud;
+}
+
+/// How many of the points `indices` the mask marks.
+std::size_t markedAmong(const std::vector<std::uint8_t>& mask, const std::vector<int>& indices) {
+  std::size_t n = 0;
+  for (int i : indices) n += mask[i];
+  return n;
+}
+
+/// The points of `cloud` strictly inside the box (lo, hi), and how many of them the mask marks.
+std::pair<std::size_t, std::size_t> markedInside(const Cloud& cloud,
+                                                 const std::vector<std::uint8_t>& mask,
+                                                 const Eigen::Vector3f& lo,
+                                                 const Eigen::Vector3f& hi) {
+  std::size_t inside = 0, marked = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f q = cloud[i].getVector3fMap();
+    if ((q.array() > lo.array()).all() && (q.array() < hi.array()).all()) {
+      ++inside;
+      marked += mask[i];
+    }
+  }
+  return {inside, marked};
 }
 
 }  // namespace
@@ -138,50 +183,35 @@ TEST(UpDirection, RotatedInputGivesTheSameLabels) {
 // returns are marked in both clouds, a new object near the robot is not; from the same pose
 // nothing is.
 TEST(SelfReturns, BodyMarkedStaticSceneKept) {
-  auto sweep = [](const Eigen::Vector3d& at, unsigned seed, std::vector<int>* body,
-                  std::vector<synthetic::AlignedBox> objects = {}) {
-    synthetic::SceneOptions o;
-    o.seed = seed;
-    o.range_sigma_m = 0.005;
-    o.sensor = at;
-    o.objects = objects;
-    synthetic::Scene s = synthetic::makeCorridor(o);
-    // The body: a 0.4 x 0.4 x 0.3 m box below the sensor, sampled on its top.
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> u(-0.2, 0.2);
-    for (int k = 0; k < 400; ++k) {
-      body->push_back(static_cast<int>(s.cloud.size()));
-      s.cloud.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
-    }
-    setSensorOrigin(s.cloud, at.cast<float>());
-    return s.cloud;
+  // The body: a 0.4 x 0.4 x 0.3 m box below the sensor, sampled on its top.
+  auto body = [](const Eigen::Vector3d& at, unsigned seed) {
+    return [at, seed] {
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> u(-0.2, 0.2);
+      std::vector<PointT> top;
+      for (int k = 0; k < 400; ++k)
+        top.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
+      return top;
+    };
   };
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
   std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweep(Eigen::Vector3d(0, 0, 0.6), 1, &body_ref);
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, body(at_ref, 1), &body_ref);
   // A new box 0.8 m in front of the current sensor: never a self-return above the floor
   // band (its lowest centimetres, within about one sampling spacing of the floor the robot
   // moved along, match the floor in both frames and are taken like the floor).
-  const Cloud cur = sweep(Eigen::Vector3d(2, 0, 0.6), 2, &body_cur,
-                          {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
+  const Cloud cur =
+      sweepWithRobotPart(at_cur, 2, body(at_cur, 2), &body_cur,
+                         {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
   PreprocessParams p;
   const SelfReturns s = findSelfReturns(ref, cur, p);
   ASSERT_TRUE(s.checked);
-  std::size_t body_marked = 0;
-  for (int i : body_cur) body_marked += s.current[i];
-  EXPECT_GE(body_marked, body_cur.size() * 95 / 100);
-  std::size_t box_points = 0, box_marked = 0;
-  for (std::size_t i = 0; i < cur.size(); ++i) {
-    const auto& q = cur[i];
-    if (q.x > 2.79 && q.x < 3.11 && std::abs(q.y) < 0.21 && q.z > 0.08 && q.z < 0.51) {
-      ++box_points;
-      box_marked += s.current[i];
-    }
-  }
+  EXPECT_GE(markedAmong(s.current, body_cur), body_cur.size() * 95 / 100);
+  const auto [box_points, box_marked] = markedInside(
+      cur, s.current, Eigen::Vector3f(2.79f, -0.21f, 0.08f), Eigen::Vector3f(3.11f, 0.21f, 0.51f));
   EXPECT_GT(box_points, 100u);
   EXPECT_EQ(box_marked, 0u) << "points of a new object taken for the robot";
-  std::size_t ref_body_marked = 0;
-  for (int i : body_ref) ref_body_marked += s.reference[i];
-  EXPECT_GE(ref_body_marked, body_ref.size() * 95 / 100);
+  EXPECT_GE(markedAmong(s.reference, body_ref), body_ref.size() * 95 / 100);
   // Same pose: everything near the sensor matches in the map frame too: nothing marked.
   const SelfReturns same = findSelfReturns(ref, ref, p);
   EXPECT_EQ(same.current_count, 0u);
@@ -197,46 +227,34 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
 // from the other sweep's samples of it than the dense scene's spacing: its own spacing sets
 // its tolerance, and all of it is the robot. A new box 0.8 m ahead stays a change.
 TEST(SelfReturns, SparseBodyPartMatchesByItsOwnSpacing) {
-  std::vector<int> part_ref, part_cur;
-  auto sweep = [](const Eigen::Vector3d& at, unsigned seed, std::vector<int>* part,
-                  std::vector<synthetic::AlignedBox> objects = {}) {
-    synthetic::SceneOptions o;
-    o.seed = seed;
-    o.range_sigma_m = 0.005;
-    o.sensor = at;
-    o.objects = objects;
-    synthetic::Scene s = synthetic::makeCorridor(o);
-    // The bracket: a 0.5 x 0.4 m plate tilted 45 degrees, 0.25 m to the sensor's left,
-    // 30 returns (about 8 cm apart, twice the scene's own spacing near the sensor).
-    std::mt19937 rng(seed + 100);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (int k = 0; k < 30; ++k) {
-      const double a = u(rng), b = u(rng);
-      part->push_back(static_cast<int>(s.cloud.size()));
-      s.cloud.push_back(
-          PointT(at.x() - 0.25 + 0.5 * a, at.y() + 0.25 + 0.28 * b, at.z() - 0.05 - 0.28 * b));
-    }
-    setSensorOrigin(s.cloud, at.cast<float>());
-    return s.cloud;
+  // The bracket: a 0.5 x 0.4 m plate tilted 45 degrees, 0.25 m to the sensor's left,
+  // 30 returns (about 8 cm apart, twice the scene's own spacing near the sensor).
+  auto bracket = [](const Eigen::Vector3d& at, unsigned seed) {
+    return [at, seed] {
+      std::mt19937 rng(seed + 100);
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      std::vector<PointT> plate;
+      for (int k = 0; k < 30; ++k) {
+        const double a = u(rng), b = u(rng);
+        plate.push_back(
+            PointT(at.x() - 0.25 + 0.5 * a, at.y() + 0.25 + 0.28 * b, at.z() - 0.05 - 0.28 * b));
+      }
+      return plate;
+    };
   };
-  const Cloud ref = sweep(Eigen::Vector3d(0, 0, 0.6), 1, &part_ref);
-  const Cloud cur = sweep(Eigen::Vector3d(1.5, 0, 0.6), 2, &part_cur,
-                          {{Eigen::Vector3d(2.3, -0.2, 0.0), Eigen::Vector3d(2.6, 0.2, 0.5)}});
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(1.5, 0, 0.6);
+  std::vector<int> part_ref, part_cur;
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, bracket(at_ref, 1), &part_ref);
+  const Cloud cur =
+      sweepWithRobotPart(at_cur, 2, bracket(at_cur, 2), &part_cur,
+                         {{Eigen::Vector3d(2.3, -0.2, 0.0), Eigen::Vector3d(2.6, 0.2, 0.5)}});
   PreprocessParams p;
   const SelfReturns s = findSelfReturns(ref, cur, p);
   ASSERT_TRUE(s.checked);
-  std::size_t marked = 0;
-  for (int i : part_cur) marked += s.current[i];
-  std::size_t marked_ref = 0;
-  for (int i : part_ref) marked_ref += s.reference[i];
-  std::size_t box_points = 0, box_marked = 0;
-  for (std::size_t i = 0; i < cur.size(); ++i) {
-    const auto& q = cur[i];
-    if (q.x > 2.29 && q.x < 2.61 && std::abs(q.y) < 0.21 && q.z > 0.06 && q.z < 0.51) {
-      ++box_points;
-      box_marked += s.current[i];
-    }
-  }
+  const std::size_t marked = markedAmong(s.current, part_cur);
+  const std::size_t marked_ref = markedAmong(s.reference, part_ref);
+  const auto [box_points, box_marked] = markedInside(
+      cur, s.current, Eigen::Vector3f(2.29f, -0.21f, 0.06f), Eigen::Vector3f(2.61f, 0.21f, 0.51f));
   std::printf(
       "bracket: %zu of %zu current, %zu of %zu reference points marked; tolerance %.4f m; "
       "box %zu of %zu\n",
@@ -250,8 +268,8 @@ TEST(SelfReturns, SparseBodyPartMatchesByItsOwnSpacing) {
   for (std::size_t k = 0; k < part_cur.size(); ++k) {
     float best = std::numeric_limits<float>::infinity();
     for (int j : part_ref)
-      best = std::min(best, ((ref[j].getVector3fMap() - Eigen::Vector3f(0, 0, 0.6f)) -
-                             (cur[part_cur[k]].getVector3fMap() - Eigen::Vector3f(1.5f, 0, 0.6f)))
+      best = std::min(best, ((ref[j].getVector3fMap() - at_ref.cast<float>()) -
+                             (cur[part_cur[k]].getVector3fMap() - at_cur.cast<float>()))
                                 .norm());
     within_plain += best <= s.tolerance_m;
   }
@@ -282,24 +300,19 @@ TEST(SelfReturns, BodyBoxIsTheRobotInBothSweeps) {
   setSensorOrigin(ref, at);
   setSensorOrigin(cur, at);
   PreprocessParams p;
-  auto count = [](const std::vector<std::uint8_t>& mask, const std::vector<int>& idx) {
-    std::size_t n = 0;
-    for (int i : idx) n += mask[i];
-    return n;
-  };
   const SelfReturns without = findSelfReturns(ref, cur, p, 0.05);
-  EXPECT_EQ(count(without.current, mast_cur), 0u);  // the robot did not move: not sought
-  p.body_box = "-0.4 -0.15 -0.5 -0.2 0.15 0.1";     // in the sensor's frame
+  EXPECT_EQ(markedAmong(without.current, mast_cur), 0u);  // the robot did not move: not sought
+  p.body_box = "-0.4 -0.15 -0.5 -0.2 0.15 0.1";           // in the sensor's frame
   const SelfReturns with = findSelfReturns(ref, cur, p, 0.05);
-  EXPECT_EQ(count(with.current, mast_cur), mast_cur.size());
-  EXPECT_EQ(count(with.reference, mast_ref), mast_ref.size());
+  EXPECT_EQ(markedAmong(with.current, mast_cur), mast_cur.size());
+  EXPECT_EQ(markedAmong(with.reference, mast_ref), mast_ref.size());
   // Only the box: the corridor is untouched.
   EXPECT_EQ(with.current_count, mast_cur.size());
   // The box turns with the sensor: a sensor yawed by 180 degrees sees it on the other side.
   Cloud turned = cur;
   turned.sensor_orientation_ =
       Eigen::Quaternionf(Eigen::AngleAxisf(M_PI, Eigen::Vector3f::UnitZ()));
-  EXPECT_EQ(count(findSelfReturns(ref, turned, p, 0.05).current, mast_cur), 0u);
+  EXPECT_EQ(markedAmong(findSelfReturns(ref, turned, p, 0.05).current, mast_cur), 0u);
   for (const char* bad : {"1 2 3", "0 0 0 -1 1 1", "0 0 0 1 1 nan", "a b c d e f"}) {
     p.body_box = bad;
     EXPECT_THROW(p.validate(), std::invalid_argument) << bad;

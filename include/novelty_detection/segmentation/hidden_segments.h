@@ -103,8 +103,8 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 /// segment and are linked to a segment's points (closer than `link_radius_m`, directly or
 /// through other such candidates) join that segment (segments in order, each kept
 /// ascending), breadth first from the segment's points, and at most `max_growth` times the
-/// segment's own points.
+/// segment's own points (segmentation/hidden_max_growth).
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m, double max_growth = 1.0);
+                    double link_radius_m, double max_growth);
 
 }  // namespace novelty_detection
