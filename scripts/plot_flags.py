@@ -3,9 +3,9 @@
 
 Input: a file written by test_real_pairs with NOVELTY_REAL_OUT set (scripts/evaluate_real.sh
 does so): "o x y z" per sensor origin (reference, current), "r x y z" per reference point,
-"c x y z label" per current point. Left: top view; right: side view (x, z), both 1 m around what is flagged and the sensors. Reference grey,
-current cyan, each novel segment in its own colour with its point count, sensor origins as
-stars (black: reference, red: current).
+"c x y z label" per current point. Left: top view; right: side view (x, z), both 1 m around
+what is flagged and the sensors. Reference grey, current cyan, each novel segment in its own
+colour with its point count, sensor origins as stars (black: reference, red: current).
 
 usage: plot_flags.py FLAGS.txt OUT.png [TITLE]
 """
