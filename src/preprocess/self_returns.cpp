@@ -6,27 +6,36 @@
 #include <stdexcept>
 
 #include "common/knn.h"
+#include "novelty_detection/preprocess/preprocess.h"
 
 namespace novelty_detection {
 namespace {
 
-bool finitePoint(const PointT& p) {
-  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-}
-
 using Points = std::vector<Eigen::Vector3f>;
 
-/// The points of `cloud` within max_range of its sensor, in the sensor's frame; the ones
-/// closer than min_range or inside `body` (sensor frame) are marked in `mask` directly.
-Points nearInSensorFrame(const Cloud& cloud, double min_range, double max_range,
-                         const Eigen::AlignedBox3f& body, std::vector<int>* index,
-                         std::vector<std::uint8_t>* mask) {
+/// The finite points of a cloud with repeats of one position (clouds stored twice, merged
+/// sweeps) set aside: spacings and tolerances are measured between distinct samples, and a
+/// repeat takes the mark of its first occurrence (copyToRepeats).
+struct Distinct {
+  Indices repeats, first;  // declared before `unique`, which fills them
+  Indices unique;
+  explicit Distinct(const Cloud& cloud)
+      : unique(removeDuplicates(cloud, finiteIndices(cloud), &repeats, &first)) {}
+  void copyToRepeats(std::vector<std::uint8_t>* mask) const {
+    for (std::size_t k = 0; k < repeats.size(); ++k) (*mask)[repeats[k]] = (*mask)[first[k]];
+  }
+};
+
+/// The distinct points of `cloud` within max_range of its sensor, in the sensor's frame; the
+/// ones closer than min_range or inside `body` (sensor frame) are marked in `mask` directly.
+Points nearInSensorFrame(const Cloud& cloud, const Indices& distinct, double min_range,
+                         double max_range, const Eigen::AlignedBox3f& body,
+                         std::vector<int>* index, std::vector<std::uint8_t>* mask) {
   const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
   const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
   Points near;
   mask->assign(cloud.size(), 0);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!finitePoint(cloud[i])) continue;
+  for (const int i : distinct) {
     const Eigen::Vector3f d = cloud[i].getVector3fMap() - o;
     const float r = d.norm();
     if (r < min_range) {
@@ -45,12 +54,11 @@ Points nearInSensorFrame(const Cloud& cloud, double min_range, double max_range,
   return near;
 }
 
-/// The finite points of `cloud` (map frame).
-Points finitePoints(const Cloud& cloud) {
+/// The points of `cloud` at `indices` (map frame).
+Points pointsAt(const Cloud& cloud, const Indices& indices) {
   Points out;
-  out.reserve(cloud.size());
-  for (const auto& p : cloud)
-    if (finitePoint(p)) out.push_back(p.getVector3fMap());
+  out.reserve(indices.size());
+  for (const int i : indices) out.push_back(cloud[i].getVector3fMap());
   return out;
 }
 
@@ -126,23 +134,26 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       max_range * reference.sensor_orientation_.normalized().angularDistance(
                       current.sensor_orientation_.normalized());
   if (moved < novelty_distance_m) max_range = 0.0;
+  const Distinct rd(reference), cd(current);
   std::vector<int> ri, ci;
-  const Points rn =
-      nearInSensorFrame(reference, params.min_range_m, max_range, body, &ri, &s.reference);
-  const Points cn =
-      nearInSensorFrame(current, params.min_range_m, max_range, body, &ci, &s.current);
+  const Points rn = nearInSensorFrame(reference, rd.unique, params.min_range_m, max_range, body,
+                                      &ri, &s.reference);
+  const Points cn = nearInSensorFrame(current, cd.unique, params.min_range_m, max_range, body,
+                                      &ci, &s.current);
   if (rn.size() >= 2 && cn.size() >= 2) {
     // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
     const detail::KnnTree rn_tree(rn), cn_tree(cn);
     std::vector<double> spacing = rn_tree.kthNeighbourDistances(1);
     std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
     s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
-    const detail::KnnTree reference_map(finitePoints(reference)),
-        current_map(finitePoints(current));
+    const detail::KnnTree reference_map(pointsAt(reference, rd.unique)),
+        current_map(pointsAt(current, cd.unique));
     const double nd = std::max(0.0, novelty_distance_m);
     markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, reference_map, &s.current);
     markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, current_map, &s.reference);
   }
+  rd.copyToRepeats(&s.reference);
+  cd.copyToRepeats(&s.current);
   for (auto m : s.current) s.current_count += m;
   for (auto m : s.reference) s.reference_count += m;
   return s;

@@ -222,6 +222,49 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
 }
 
+// A cloud stored twice (every return repeated, as some recorded scans are) is the same
+// sweep: the tolerance is measured between distinct samples (not the zero gap between a
+// point and its copy), and both copies of each point get the same mark as the single sweep.
+TEST(SelfReturns, RepeatedPointsChangeNothing) {
+  auto body = [](const Eigen::Vector3d& at, unsigned seed) {
+    return [at, seed] {
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> u(-0.2, 0.2);
+      std::vector<PointT> top;
+      for (int k = 0; k < 400; ++k)
+        top.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
+      return top;
+    };
+  };
+  auto twice = [](const Cloud& c) {
+    Cloud d = c;
+    d.insert(d.end(), c.begin(), c.end());
+    d.width = d.size(), d.height = 1;
+    return d;
+  };
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  std::vector<int> body_ref, body_cur;
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, body(at_ref, 1), &body_ref);
+  const Cloud cur = sweepWithRobotPart(at_cur, 2, body(at_cur, 2), &body_cur);
+  PreprocessParams p;
+  const SelfReturns once = findSelfReturns(ref, cur, p);
+  const SelfReturns doubled = findSelfReturns(twice(ref), twice(cur), p);
+  ASSERT_TRUE(doubled.checked);
+  EXPECT_GT(once.tolerance_m, 0.0);
+  EXPECT_DOUBLE_EQ(doubled.tolerance_m, once.tolerance_m);
+  ASSERT_EQ(doubled.current.size(), 2 * cur.size());
+  for (std::size_t i = 0; i < cur.size(); ++i) {
+    ASSERT_EQ(doubled.current[i], once.current[i]) << i;
+    ASSERT_EQ(doubled.current[i + cur.size()], once.current[i]) << i;
+  }
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    ASSERT_EQ(doubled.reference[i], once.reference[i]) << i;
+    ASSERT_EQ(doubled.reference[i + ref.size()], once.reference[i]) << i;
+  }
+  EXPECT_GE(markedAmong(doubled.current, body_cur), body_cur.size() * 95 / 100);
+  EXPECT_EQ(doubled.current_count, 2 * once.current_count);
+}
+
 // A sparsely sampled part of the robot (a slanted bracket beside the sensor, 30 returns on
 // other beams in each sweep, as a tilting laser or a sub-sampled cloud gives it) lies farther
 // from the other sweep's samples of it than the dense scene's spacing: its own spacing sets

@@ -11,7 +11,8 @@
 // where the robot stood still, its returns and the scene around it match in both frames and
 // nothing is marked; where it moved by less than the novelty distance, nothing is sought.
 // The tolerance is twice the median spacing of the reference's near points (their sampling),
-// so it scales with the sensor. A part of the robot sampled sparsely and on other beams in
+// so it scales with the sensor; spacings are measured between distinct samples (a cloud stored
+// twice is the same sweep, and each repeat takes its first occurrence's mark). A part of the robot sampled sparsely and on other beams in
 // the two sweeps (a bracket of a tilt mount) is matched within three times its own sampling
 // spacing instead, when the map frame cannot explain it (no point of the other sweep within
 // the novelty distance nor within twice that match). Static surfaces that run along the robot's
