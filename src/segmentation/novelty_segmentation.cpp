@@ -98,7 +98,7 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
 }
 
 std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
-                                    int min_points, double* link_radius_m) {
+                                    int min_points, double* link_radius_m, double max_spacing_m) {
   std::vector<Indices> out;
   if (link_radius_m) *link_radius_m = 0.0;
   if (indices.empty()) return out;
@@ -117,7 +117,8 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
   for (int i = 0; i < n && k > 1; i += stride) {
     if (tree.nearestKSearch((*pts)[i], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
   }
-  const double radius = link_factor * (spacing.empty() ? 0.0 : median(spacing));
+  const double radius =
+      link_factor * std::min(spacing.empty() ? 0.0 : median(spacing), max_spacing_m);
   if (link_radius_m) *link_radius_m = radius;
   std::vector<int> comp(n, -1);
   int count = 0;
@@ -151,12 +152,30 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
   return out;
 }
 
+double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points) {
+  if (sweep.size() < 5 || points.empty()) return std::numeric_limits<double>::infinity();
+  Cloud::Ptr pts(new Cloud);
+  pts->reserve(sweep.size());
+  for (int i : sweep) pts->push_back(cloud[i]);
+  pcl::KdTreeFLANN<PointT> tree;
+  tree.setInputCloud(pts);
+  constexpr int k = 5;  // the point itself (it is in the sweep) and its 4 nearest
+  std::vector<int> nn;
+  std::vector<float> d2;
+  std::vector<double> spacing;
+  const std::size_t stride = std::max<std::size_t>(1, points.size() / 2000);
+  for (std::size_t j = 0; j < points.size(); j += stride)
+    if (tree.nearestKSearch(cloud[points[j]], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
+  return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
+}
+
 std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
                                         const std::vector<int>& owner, int num_gaussians,
-                                        const SegmentationParams& params, double* link_radius_m) {
+                                        const SegmentationParams& params, double* link_radius_m,
+                                        double sweep_spacing_m) {
   double link_radius = 0.0;
   const std::vector<Indices> pieces =
-      linkComponents(cloud, points, params.link_factor, 1, &link_radius);
+      linkComponents(cloud, points, params.link_factor, 1, &link_radius, sweep_spacing_m);
   if (link_radius_m) *link_radius_m = link_radius;
   const std::size_t np = pieces.size();
   std::vector<int> dominant(np), parent(np);

@@ -9,11 +9,13 @@
 //    a sweep is unchanged, so the median/MAD measure the noise and sampling mismatch between
 //    the two scans; this strips wall/floor points that share a Gaussian with an object.
 // 3. Segments: connected components of the kept points, linked when closer than
-//    link_factor * (median distance to the 4th nearest kept point); adjacent novel Gaussians
-//    touching the same object therefore end up in one segment. Segments smaller than
+//    link_factor * (median distance to the 4th nearest kept point, at most the sweep's own
+//    median 4th-neighbour spacing at those points, see sweepSpacing); adjacent novel
+//    Gaussians touching the same object therefore end up in one segment. Segments smaller than
 //    min_segment_points are dropped.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -55,8 +57,17 @@ double noveltyDistanceThreshold(std::vector<double> distances, double factor, do
 /// Connected components of cloud[indices] with the link rule above. Returns components of at
 /// least `min_points` points, as input-cloud indices, largest first; `link_radius_m` gets the
 /// radius used.
+/// `max_spacing_m` caps the spacing (see sweepSpacing).
 std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, double link_factor,
-                                    int min_points, double* link_radius_m = nullptr);
+                                    int min_points, double* link_radius_m = nullptr,
+                                    double max_spacing_m = std::numeric_limits<double>::infinity());
+
+/// The sweep's own sampling where `points` lie: the median distance from each of `points`
+/// (a sample) to its 4th nearest point of cloud[sweep] (`points` a subset of `sweep`); infinity
+/// with too few points. Novel points scattered over a far, sparsely sampled wall lie much
+/// farther apart than the sweep samples there; their mutual spacing would link (and merge)
+/// across metres, so the link radius takes the smaller of the two.
+double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points);
 
 /// Segments of novel points (`points` ascending, `owner[k]` the most probable novel Gaussian
 /// of points[k], in [0, num_gaussians)): connected pieces (linkComponents with
@@ -70,7 +81,9 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
 std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
                                         const std::vector<int>& owner, int num_gaussians,
                                         const SegmentationParams& params,
-                                        double* link_radius_m = nullptr);
+                                        double* link_radius_m = nullptr,
+                                        double sweep_spacing_m =
+                                            std::numeric_limits<double>::infinity());
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).
