@@ -7,6 +7,7 @@
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -46,32 +47,62 @@ Found bestSegment(const Result& r, const std::vector<int>& truth) {
   return f;
 }
 
+std::size_t groundPoints(const Result& r) {
+  std::map<std::string, std::size_t> c(r.point_counts.begin(), r.point_counts.end());
+  return c["after_outliers"] - c["after_ground"];
+}
+
+/// One inserted object: its best segment, the share of its points labelled, and whether the
+/// floor is the one of the sweep without it (found alike; when found, the same plane within
+/// 1 cm and 1 degree, and as many ground points less at most the ones it hides or replaces).
+struct Outcome {
+  double iou = 0.0, recall = 0.0;
+  bool same_floor = false;
+};
+
 /// Inserts `model` at `count` seeded placements into the pair's current sweep, detects with
-/// the defaults, prints a row each and returns the best segment IoU of each placement.
-std::vector<double> runInsertions(const Pair& pair, const sim::ObjectModel& model, const char* name,
-                                  int count, std::uint64_t seed) {
+/// the defaults, prints a row each and returns each placement's outcome.
+std::vector<Outcome> runInsertions(const Pair& pair, const sim::ObjectModel& model,
+                                   const char* name, int count, std::uint64_t seed) {
   const auto placements = sim::freeFloorPlacements(pair.current, pair.currentOrigin(),
                                                    pair.reference, model, count, seed);
   Params p;
   p.superquadric.enabled = false;
   Pipeline pipeline(p);
   pipeline.setReference(pair.reference);
-  std::vector<double> ious;
+  const Result unchanged = pipeline.detect(pair.current);
+  std::vector<Outcome> outcomes;
   for (const sim::Placement& where : placements) {
     const sim::Insertion in =
         sim::insertByRayCasting(pair.current, pair.currentOrigin(), model, where);
     const Result r = pipeline.detect(in.cloud);
     const Found f = bestSegment(r, in.truth);
-    std::size_t other = 0;
-    for (std::size_t i = 0; i < r.labels.size(); ++i) other += r.labels[i] != 0 && in.truth[i] == 0;
+    std::size_t other = 0, found = 0;
+    for (std::size_t i = 0; i < r.labels.size(); ++i) {
+      other += r.labels[i] != 0 && in.truth[i] == 0;
+      found += r.labels[i] != 0 && in.truth[i] != 0;
+    }
+    Outcome o;
+    o.iou = f.iou;
+    o.recall = f.truth_points ? static_cast<double>(found) / f.truth_points : 0.0;
+    o.same_floor = r.floor_found == unchanged.floor_found;
+    if (o.same_floor && r.floor_found) {
+      const double lost = static_cast<double>(groundPoints(unchanged)) - groundPoints(r);
+      o.same_floor = std::abs(r.floor[3] - unchanged.floor[3]) < 0.01 &&
+                     r.floor.head<3>().dot(unchanged.floor.head<3>()) > std::cos(M_PI / 180.0) &&
+                     lost <= 0.02 * groundPoints(unchanged) + in.replaced;
+    }
     std::printf("| %s + %s | (%.2f, %.2f), %.1f m from the sensor | %zu | %.3f | %zu | %zu |\n",
                 name, model.name.c_str(), where.base.x(), where.base.y(),
                 std::hypot(where.base.x() - pair.currentOrigin().x(),
                            where.base.y() - pair.currentOrigin().y()),
                 in.replaced, f.iou, f.segments, other);
-    ious.push_back(f.iou);
+    std::printf("  floor %s, %zu ground points (%s, %zu without the object); recall %.3f\n",
+                r.floor_found ? "found" : "none", groundPoints(r),
+                o.same_floor ? "same floor" : "FLOOR MOVED", groundPoints(unchanged), o.recall);
+    outcomes.push_back(o);
   }
-  return ious;
+  return outcomes;
 }
 
 }  // namespace
@@ -92,21 +123,51 @@ TEST(SemiReal, PersonIsCutFromTheCorridorFrame) {
 // sensor, where a person cuts 40-100 beams and a box 70-170.
 TEST(SemiReal, EthBoxIsFoundAtEachPlacement) {
   REQUIRE_DATA(ethDir() / "cloud_1.pcd");
-  const std::vector<double> ious =
+  const std::vector<Outcome> found =
       runInsertions(ethPair(), sim::boxModel({0.5, 0.4, 0.6}), "eth", 3, 2);
-  ASSERT_EQ(ious.size(), 3u);
-  // Measured: IoU 0.803, 0.994, 0.756.
-  for (double iou : ious) EXPECT_GE(iou, 0.7);
+  ASSERT_EQ(found.size(), 3u);
+  // Measured: IoU 0.784, 0.722, 0.831.
+  for (const Outcome& o : found) EXPECT_GE(o.iou, 0.7);
+  for (const Outcome& o : found) EXPECT_TRUE(o.same_floor);
 }
 
 TEST(SemiReal, EthPersonNearIsFound) {
   REQUIRE_DATA(ethDir() / "cloud_1.pcd");
   REQUIRE_DATA(dataDir() / "pcl_test_indoor_scenes" / "five_people.pcd");
-  const std::vector<double> ious = runInsertions(ethPair(), realPerson(), "eth", 3, 1);
+  const std::vector<Outcome> found = runInsertions(ethPair(), realPerson(), "eth", 3, 1);
   // Two free placements: at 2.8 m (98 beams) the person is one segment, IoU 0.929; at 3.8 m
-  // (47 beams, tilt lines ~10 cm apart) it is not found yet.
-  ASSERT_EQ(ious.size(), 2u);
-  EXPECT_GE(*std::max_element(ious.begin(), ious.end()), 0.7);
+  // (47 beams, tilt lines ~10 cm apart) IoU 0.660.
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_GE(std::max(found[0].iou, found[1].iou), 0.7);
+  for (const Outcome& o : found) EXPECT_TRUE(o.same_floor);
+}
+
+// The room pair (a 2D laser panned about the vertical, every point stored twice): its floor
+// is seen 1-6 m around the sensor, a person cuts 100-300 beams and a box 150-400.
+TEST(SemiReal, RoomBoxIsFoundAtEachPlacement) {
+  REQUIRE_DATA(roomDir() / "room_scan2.pcd");
+  const std::vector<Outcome> found =
+      runInsertions(roomPair(), sim::boxModel({0.5, 0.4, 0.6}), "room", 3, 2);
+  ASSERT_EQ(found.size(), 3u);
+  // Measured: IoU 0.753, 0.944, 0.779; the floor found and unmoved each time.
+  for (const Outcome& o : found) EXPECT_GE(o.iou, 0.7);
+  for (const Outcome& o : found) EXPECT_TRUE(o.same_floor);
+}
+
+TEST(SemiReal, RoomPersonIsFoundAtEachPlacement) {
+  REQUIRE_DATA(roomDir() / "room_scan2.pcd");
+  REQUIRE_DATA(dataDir() / "pcl_test_indoor_scenes" / "five_people.pcd");
+  const std::vector<Outcome> found = runInsertions(roomPair(), realPerson(), "room", 3, 1);
+  ASSERT_EQ(found.size(), 3u);
+  // Measured: at 1.6 m and 2.5 m IoU 1.000. At 4.1 m (88 beams) every point of the person is
+  // labelled, but its segment also takes stray differences on the wall and ceiling stacked
+  // above it (IoU 0.478): the merge of pieces one above the other does not yet ask whether
+  // the current sweep saw through the gap between them.
+  EXPECT_GE(found[1].iou, 0.7);
+  EXPECT_GE(found[2].iou, 0.7);
+  EXPECT_GE(found[0].iou, 0.4);
+  for (const Outcome& o : found) EXPECT_GE(o.recall, 0.95);
+  for (const Outcome& o : found) EXPECT_TRUE(o.same_floor);
 }
 
 // A person standing on the floor never moves the floor: a corridor sweep (floor z = 0,
