@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 #include <type_traits>
+#include <vector>
 
 namespace novelty_detection {
 namespace {
@@ -71,16 +72,26 @@ void applyYaml(const YAML::Node& root, const std::string& where, Params& out) {
     groups.insert(group);
     known.insert(std::string(group) + "/" + name);
   });
+  // yaml-cpp keeps every repeated key and answers lookups with the first, rosparam with the
+  // last: a repeat would configure the tool and the node differently, so it is refused.
+  auto line = [](const YAML::Node& n) { return std::to_string(n.Mark().line + 1); };
+  std::set<std::string> seen_groups, seen_keys;
   for (const auto& g : root) {
     const std::string group = g.first.as<std::string>();
     if (!groups.count(group))
       throw std::invalid_argument(where + ": unknown group '" + group + "'");
+    if (!seen_groups.insert(group).second)
+      throw std::invalid_argument(where + ": group '" + group + "' repeated (line " +
+                                  line(g.first) + "); give each group once");
     if (!g.second.IsMap())
       throw std::invalid_argument(where + ": group '" + group + "' must be a map");
     for (const auto& kv : g.second) {
       const std::string key = group + "/" + kv.first.as<std::string>();
       if (!known.count(key))
         throw std::invalid_argument(where + ": unknown parameter '" + key + "'");
+      if (!seen_keys.insert(key).second)
+        throw std::invalid_argument(where + ": parameter '" + key + "' repeated (line " +
+                                    line(kv.first) + "); give each parameter once");
     }
   }
   params.visit([&](const char* group, const char* name, auto& value, const ParamInfo&) {
@@ -108,10 +119,22 @@ void applyYaml(const YAML::Node& root, const std::string& where, Params& out) {
 
 }  // namespace
 
+namespace {
+
+/// The one document of a YAML text (null when empty); more than one is refused.
+YAML::Node singleDocument(const std::vector<YAML::Node>& documents, const std::string& where) {
+  if (documents.size() > 1)
+    throw std::invalid_argument(where + " holds " + std::to_string(documents.size()) +
+                                " YAML documents (separated by '---'); put every setting in one");
+  return documents.empty() ? YAML::Node() : documents.front();
+}
+
+}  // namespace
+
 void loadParamsYaml(const std::string& path, Params& params) {
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = singleDocument(YAML::LoadAllFromFile(path), "config file '" + path + "'");
   } catch (const YAML::BadFile&) {
     throw std::invalid_argument("cannot read config file '" + path + "'");
   } catch (const YAML::Exception& e) {
@@ -123,7 +146,7 @@ void loadParamsYaml(const std::string& path, Params& params) {
 void loadParamsYamlString(const std::string& yaml, Params& params) {
   YAML::Node root;
   try {
-    root = YAML::Load(yaml);
+    root = singleDocument(YAML::LoadAll(yaml), "config");
   } catch (const YAML::Exception& e) {
     throw std::invalid_argument("config is not valid YAML: " + e.msg);
   }

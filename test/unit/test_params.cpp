@@ -120,6 +120,32 @@ TEST(Params, RejectsUnknownKeysWrongTypesAndRanges) {
   EXPECT_EQ(p.gmm.max_components, Params().gmm.max_components);
 }
 
+// A repeated key, a repeated group or a second YAML document would be read one way here
+// (yaml-cpp answers with the first) and another by rosparam (the last): refused, with the
+// name and line, and nothing applied.
+TEST(Params, RepeatsAndSecondDocumentsAreRefused) {
+  Params p;
+  auto expectError = [&](const std::string& yaml, const std::string& fragment) {
+    try {
+      novelty_detection::loadParamsYamlString(yaml, p);
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  expectError("gmm:\n  max_components: 3\n  max_components: 5\n",
+              "parameter 'gmm/max_components' repeated (line 3)");
+  expectError("gmm:\n  max_components: 3\nselection:\n  u_th: 0.5\ngmm:\n  max_components: 5\n",
+              "group 'gmm' repeated (line 5)");
+  expectError("gmm:\n  max_components: 3\n---\ngmm:\n  max_components: 5\n",
+              "holds 2 YAML documents");
+  EXPECT_EQ(p.gmm.max_components, Params().gmm.max_components);
+  EXPECT_EQ(p.selection.u_th, Params().selection.u_th);
+  // One document, each key once: applied.
+  novelty_detection::loadParamsYamlString("---\ngmm:\n  max_components: 3\n", p);
+  EXPECT_EQ(p.gmm.max_components, 3);
+}
+
 TEST(Params, MissingFileIsAClearError) {
   Params p;
   EXPECT_THROW(novelty_detection::loadParamsYaml("/nonexistent/x.yaml", p), std::invalid_argument);
