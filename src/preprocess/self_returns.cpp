@@ -29,8 +29,8 @@ struct Distinct {
 /// The distinct points of `cloud` within max_range of its sensor, in the sensor's frame; the
 /// ones closer than min_range or inside `body` (sensor frame) are marked in `mask` directly.
 Points nearInSensorFrame(const Cloud& cloud, const Indices& distinct, double min_range,
-                         double max_range, const Eigen::AlignedBox3f& body,
-                         std::vector<int>* index, std::vector<std::uint8_t>* mask) {
+                         double max_range, const Eigen::AlignedBox3f& body, std::vector<int>* index,
+                         std::vector<std::uint8_t>* mask) {
   const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
   const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
   Points near;
@@ -138,8 +138,8 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
   std::vector<int> ri, ci;
   const Points rn = nearInSensorFrame(reference, rd.unique, params.min_range_m, max_range, body,
                                       &ri, &s.reference);
-  const Points cn = nearInSensorFrame(current, cd.unique, params.min_range_m, max_range, body,
-                                      &ci, &s.current);
+  const Points cn =
+      nearInSensorFrame(current, cd.unique, params.min_range_m, max_range, body, &ci, &s.current);
   if (rn.size() >= 2 && cn.size() >= 2) {
     // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
     const detail::KnnTree rn_tree(rn), cn_tree(cn);

@@ -165,7 +165,8 @@ double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& poi
   std::vector<double> spacing;
   const std::size_t stride = std::max<std::size_t>(1, points.size() / 2000);
   for (std::size_t j = 0; j < points.size(); j += stride)
-    if (tree.nearestKSearch(cloud[points[j]], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
+    if (tree.nearestKSearch(cloud[points[j]], k, nn, d2) == k)
+      spacing.push_back(std::sqrt(d2[k - 1]));
   return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
 }
 

@@ -80,8 +80,8 @@ inline Eigen::Isometry3d roomOdometryGuess() {
 /// (test_room_scans.cpp, RoomScans.RegistrationIsReproduced, computes it again).
 inline Eigen::Isometry3d roomTransform() {
   Eigen::Matrix4d m;
-  m << 0.757126, -0.652778, 0.025317, 1.963146, 0.652634, 0.757530, 0.014751, 0.054038,
-      -0.028807, 0.005354, 0.999571, 0.024055, 0, 0, 0, 1;
+  m << 0.757126, -0.652778, 0.025317, 1.963146, 0.652634, 0.757530, 0.014751, 0.054038, -0.028807,
+      0.005354, 0.999571, 0.024055, 0, 0, 0, 1;
   Eigen::Isometry3d T(m);
   T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
   return T;
@@ -104,7 +104,7 @@ inline Pair roomPair() {
 /// "o x y z" per sensor origin (reference, current), "r x y z" per reference point and
 /// "c x y z label" per current point (finite points only).
 inline void writeFlags(const std::string& name, const Cloud& ref, const Cloud& cur,
-                const std::vector<int>& labels) {
+                       const std::vector<int>& labels) {
   const char* dir = std::getenv("NOVELTY_REAL_OUT");
   if (!dir || !*dir) return;
   fs::create_directories(dir);
@@ -156,8 +156,8 @@ inline Result expectUnchangedPairFlagsLittle(const Pair& pair, const std::string
       r.floor_found ? "found" : "none");
   for (const auto& [stage, n] : r.point_counts) std::printf("  %s %zu\n", stage.c_str(), n);
   for (const Segment& seg : r.segments)
-    std::printf("  segment %d: %zu points at (%.2f, %.2f, %.2f), %.2f m from the sensor\n",
-                seg.id, seg.indices.size(), seg.centroid.x(), seg.centroid.y(), seg.centroid.z(),
+    std::printf("  segment %d: %zu points at (%.2f, %.2f, %.2f), %.2f m from the sensor\n", seg.id,
+                seg.indices.size(), seg.centroid.x(), seg.centroid.y(), seg.centroid.z(),
                 (seg.centroid - origin.cast<double>()).norm());
   EXPECT_LE(share, 0.015) << name << ", up " << up;
   for (const Segment& seg : r.segments) {

@@ -115,9 +115,9 @@ TEST(EthApartment, UnchangedPairFlagsLittle) {
   REQUIRE_DATA(ethDir() / "cloud_1.pcd");
   const Pair pair = ethPair();
   for (const std::string up : {"0 0 1", "auto"}) {
-    const Result r = expectUnchangedPairFlagsLittle(
-        pair, "eth cloud_0 -> cloud_1", "sensor frames, published transform", up,
-        up == "0 0 1" ? "eth_flags.txt" : "");
+    const Result r = expectUnchangedPairFlagsLittle(pair, "eth cloud_0 -> cloud_1",
+                                                    "sensor frames, published transform", up,
+                                                    up == "0 0 1" ? "eth_flags.txt" : "");
     EXPECT_GT(r.up.z(), 0.99) << up;
   }
 }

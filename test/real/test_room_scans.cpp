@@ -72,10 +72,11 @@ TEST(RoomScans, RegistrationIsReproduced) {
   const Eigen::Isometry3d stated = roomTransform();
   const double dt = (found.translation() - stated.translation()).norm();
   const double dr = rotationDeg(found, stated);
-  std::printf("registration: %.4f m and %.3f deg from the stated transform; the guess is %.3f m "
-              "and %.2f deg off\n",
-              dt, dr, (roomOdometryGuess().translation() - stated.translation()).norm(),
-              rotationDeg(roomOdometryGuess(), stated));
+  std::printf(
+      "registration: %.4f m and %.3f deg from the stated transform; the guess is %.3f m "
+      "and %.2f deg off\n",
+      dt, dr, (roomOdometryGuess().translation() - stated.translation()).norm(),
+      rotationDeg(roomOdometryGuess(), stated));
   EXPECT_LT(dt, 0.02);
   EXPECT_LT(dr, 0.3);
   EXPECT_GT((roomOdometryGuess().translation() - stated.translation()).norm(), 0.5);
@@ -89,9 +90,9 @@ TEST(RoomScans, UnchangedPairFlagsLittle) {
   REQUIRE_DATA(roomDir() / "room_scan2.pcd");
   const Pair pair = roomPair();
   for (const std::string up : {"0 0 1", "auto"}) {
-    const Result r = expectUnchangedPairFlagsLittle(
-        pair, "room scan1 -> scan2", "sensor frames, documented registration", up,
-        up == "0 0 1" ? "room_flags.txt" : "");
+    const Result r = expectUnchangedPairFlagsLittle(pair, "room scan1 -> scan2",
+                                                    "sensor frames, documented registration", up,
+                                                    up == "0 0 1" ? "room_flags.txt" : "");
     EXPECT_GT(r.up.z(), 0.99) << up;
     EXPECT_TRUE(r.floor_found) << up;
     // The floor 1.3 m below the sensor (scan 1's frame: z = -1.25 to -1.31).

@@ -12,16 +12,16 @@
 // nothing is marked; where it moved by less than the novelty distance, nothing is sought.
 // The tolerance is twice the median spacing of the reference's near points (their sampling),
 // so it scales with the sensor; spacings are measured between distinct samples (a cloud stored
-// twice is the same sweep, and each repeat takes its first occurrence's mark). A part of the robot sampled sparsely and on other beams in
-// the two sweeps (a bracket of a tilt mount) is matched within three times its own sampling
-// spacing instead, when the map frame cannot explain it (no point of the other sweep within
-// the novelty distance nor within twice that match). Static surfaces that run along the robot's
-// motion (the floor under it, a corridor wall beside it) can match in the sensor frame too, where
-// the other sweep sampled them more sparsely: they are unchanged, and dropping them loses nothing.
-// Returns closer than preprocess/min_range_m are dropped as well (the laser_filters range filter).
-// So are returns inside preprocess/body_box (a box in the sensor's frame, e.g. the base and
-// mast below a tilting laser), in either sweep, moved or not.
-// Both sensor origins must be known; otherwise nothing is marked.
+// twice is the same sweep, and each repeat takes its first occurrence's mark). A part of the robot
+// sampled sparsely and on other beams in the two sweeps (a bracket of a tilt mount) is matched
+// within three times its own sampling spacing instead, when the map frame cannot explain it (no
+// point of the other sweep within the novelty distance nor within twice that match). Static
+// surfaces that run along the robot's motion (the floor under it, a corridor wall beside it) can
+// match in the sensor frame too, where the other sweep sampled them more sparsely: they are
+// unchanged, and dropping them loses nothing. Returns closer than preprocess/min_range_m are
+// dropped as well (the laser_filters range filter). So are returns inside preprocess/body_box (a
+// box in the sensor's frame, e.g. the base and mast below a tilting laser), in either sweep, moved
+// or not. Both sensor origins must be known; otherwise nothing is marked.
 #pragma once
 
 #include <Eigen/Geometry>

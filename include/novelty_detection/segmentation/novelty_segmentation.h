@@ -78,12 +78,10 @@ double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& poi
 /// any Gaussians stacked one above the other (footprints overlapping, vertical gap within
 /// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines. Segments
 /// under min_segment_points are dropped; largest first. `link_radius_m` gets the link radius.
-std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
-                                        const std::vector<int>& owner, int num_gaussians,
-                                        const SegmentationParams& params,
-                                        double* link_radius_m = nullptr,
-                                        double sweep_spacing_m =
-                                            std::numeric_limits<double>::infinity());
+std::vector<Indices> segmentNovelPoints(
+    const Cloud& cloud, const Indices& points, const std::vector<int>& owner, int num_gaussians,
+    const SegmentationParams& params, double* link_radius_m = nullptr,
+    double sweep_spacing_m = std::numeric_limits<double>::infinity());
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).
