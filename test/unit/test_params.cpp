@@ -100,22 +100,28 @@ TEST(Params, YamlOverridesAndRoundTrips) {
   EXPECT_DOUBLE_EQ(q.selection.u_th, 0.5);
 }
 
+namespace {
+
+/// Loading `yaml` into `p` is refused with a message containing `fragment`.
+void expectRefused(Params& p, const std::string& yaml, const std::string& fragment) {
+  try {
+    novelty_detection::loadParamsYamlString(yaml, p);
+    ADD_FAILURE() << "accepted: " << yaml;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+
 TEST(Params, RejectsUnknownKeysWrongTypesAndRanges) {
   Params p;
-  auto expectError = [&](const std::string& yaml, const std::string& fragment) {
-    try {
-      novelty_detection::loadParamsYamlString(yaml, p);
-      ADD_FAILURE() << "accepted: " << yaml;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
-    }
-  };
-  expectError("gmm:\n  max_componentz: 3\n", "gmm/max_componentz");
-  expectError("gmmm:\n  max_components: 3\n", "gmmm");
-  expectError("gmm:\n  max_components: lots\n", "gmm/max_components");
-  expectError("gmm:\n  max_components: 0\n", "gmm/max_components");
-  expectError("selection:\n  ground_distance: manhattan\n", "selection/ground_distance");
-  expectError("superquadric:\n  epsilon_min: 1.5\n  epsilon_max: 1.0\n", "epsilon_min");
+  expectRefused(p, "gmm:\n  max_componentz: 3\n", "gmm/max_componentz");
+  expectRefused(p, "gmmm:\n  max_components: 3\n", "gmmm");
+  expectRefused(p, "gmm:\n  max_components: lots\n", "gmm/max_components");
+  expectRefused(p, "gmm:\n  max_components: 0\n", "gmm/max_components");
+  expectRefused(p, "selection:\n  ground_distance: manhattan\n", "selection/ground_distance");
+  expectRefused(p, "superquadric:\n  epsilon_min: 1.5\n  epsilon_max: 1.0\n", "epsilon_min");
   // A refused file changes nothing.
   EXPECT_EQ(p.gmm.max_components, Params().gmm.max_components);
 }
@@ -125,20 +131,13 @@ TEST(Params, RejectsUnknownKeysWrongTypesAndRanges) {
 // name and line, and nothing applied.
 TEST(Params, RepeatsAndSecondDocumentsAreRefused) {
   Params p;
-  auto expectError = [&](const std::string& yaml, const std::string& fragment) {
-    try {
-      novelty_detection::loadParamsYamlString(yaml, p);
-      ADD_FAILURE() << "accepted: " << yaml;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
-    }
-  };
-  expectError("gmm:\n  max_components: 3\n  max_components: 5\n",
-              "parameter 'gmm/max_components' repeated (line 3)");
-  expectError("gmm:\n  max_components: 3\nselection:\n  u_th: 0.5\ngmm:\n  max_components: 5\n",
-              "group 'gmm' repeated (line 5)");
-  expectError("gmm:\n  max_components: 3\n---\ngmm:\n  max_components: 5\n",
-              "holds 2 YAML documents");
+  expectRefused(p, "gmm:\n  max_components: 3\n  max_components: 5\n",
+                "parameter 'gmm/max_components' repeated (line 3)");
+  expectRefused(p,
+                "gmm:\n  max_components: 3\nselection:\n  u_th: 0.5\ngmm:\n  max_components: 5\n",
+                "group 'gmm' repeated (line 5)");
+  expectRefused(p, "gmm:\n  max_components: 3\n---\ngmm:\n  max_components: 5\n",
+                "holds 2 YAML documents");
   EXPECT_EQ(p.gmm.max_components, Params().gmm.max_components);
   EXPECT_EQ(p.selection.u_th, Params().selection.u_th);
   // One document, each key once: applied.

@@ -59,6 +59,18 @@ Cloud sweepWithRobotPart(const Eigen::Vector3d& at, unsigned seed, Part part,
   return s.cloud;
 }
 
+/// The robot's body: a 0.4 x 0.4 x 0.3 m box below the sensor at `at`, 400 samples on its top.
+auto bodyTop(const Eigen::Vector3d& at, unsigned seed) {
+  return [at, seed] {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-0.2, 0.2);
+    std::vector<PointT> top;
+    for (int k = 0; k < 400; ++k)
+      top.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
+    return top;
+  };
+}
+
 /// How many of the points `indices` the mask marks.
 std::size_t markedAmong(const std::vector<std::uint8_t>& mask, const std::vector<int>& indices) {
   std::size_t n = 0;
@@ -183,25 +195,14 @@ TEST(UpDirection, RotatedInputGivesTheSameLabels) {
 // returns are marked in both clouds, a new object near the robot is not; from the same pose
 // nothing is.
 TEST(SelfReturns, BodyMarkedStaticSceneKept) {
-  // The body: a 0.4 x 0.4 x 0.3 m box below the sensor, sampled on its top.
-  auto body = [](const Eigen::Vector3d& at, unsigned seed) {
-    return [at, seed] {
-      std::mt19937 rng(seed);
-      std::uniform_real_distribution<double> u(-0.2, 0.2);
-      std::vector<PointT> top;
-      for (int k = 0; k < 400; ++k)
-        top.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
-      return top;
-    };
-  };
   const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
   std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, body(at_ref, 1), &body_ref);
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
   // A new box 0.8 m in front of the current sensor: never a self-return above the floor
   // band (its lowest centimetres, within about one sampling spacing of the floor the robot
   // moved along, match the floor in both frames and are taken like the floor).
   const Cloud cur =
-      sweepWithRobotPart(at_cur, 2, body(at_cur, 2), &body_cur,
+      sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur,
                          {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
   PreprocessParams p;
   const SelfReturns s = findSelfReturns(ref, cur, p);
@@ -226,16 +227,6 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
 // sweep: the tolerance is measured between distinct samples (not the zero gap between a
 // point and its copy), and both copies of each point get the same mark as the single sweep.
 TEST(SelfReturns, RepeatedPointsChangeNothing) {
-  auto body = [](const Eigen::Vector3d& at, unsigned seed) {
-    return [at, seed] {
-      std::mt19937 rng(seed);
-      std::uniform_real_distribution<double> u(-0.2, 0.2);
-      std::vector<PointT> top;
-      for (int k = 0; k < 400; ++k)
-        top.push_back(PointT(at.x() + u(rng), at.y() + u(rng), at.z() - 0.15));
-      return top;
-    };
-  };
   auto twice = [](const Cloud& c) {
     Cloud d = c;
     d.insert(d.end(), c.begin(), c.end());
@@ -244,8 +235,8 @@ TEST(SelfReturns, RepeatedPointsChangeNothing) {
   };
   const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
   std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, body(at_ref, 1), &body_ref);
-  const Cloud cur = sweepWithRobotPart(at_cur, 2, body(at_cur, 2), &body_cur);
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
+  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
   PreprocessParams p;
   const SelfReturns once = findSelfReturns(ref, cur, p);
   const SelfReturns doubled = findSelfReturns(twice(ref), twice(cur), p);
