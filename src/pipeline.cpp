@@ -176,9 +176,12 @@ void segmentCandidates(Detection& d) {
   const detail::NoveltyCandidates& cand = d.candidates;
   d.result.point_counts.emplace_back("novel_points", cand.novel.size());
   const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
-  d.pieces =
-      segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians, d.params.segmentation,
-                         &d.link_radius, sweepSpacing(current, d.s.pre.kept, cand.novel));
+  SweepContext sweep;
+  sweep.kept = &d.s.pre.kept;
+  sweep.origin_known = sensorOriginKnown(current.sensor_origin_);
+  sweep.origin = current.sensor_origin_.head<3>();
+  d.pieces = segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians,
+                                d.params.segmentation, &d.link_radius, sweep);
   d.owner_of.assign(current.size(), -1);
   for (std::size_t k = 0; k < cand.novel.size(); ++k) d.owner_of[cand.novel[k]] = cand.owner[k];
   d.timer.lap("segmentation");

@@ -170,13 +170,40 @@ double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& poi
   return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
 }
 
+std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
+                            const std::vector<char>& novel_mask, const Eigen::Vector3f& origin,
+                            const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                            std::size_t enough) {
+  std::size_t count = 0;
+  for (int i : kept) {
+    if (novel_mask[i]) continue;
+    // Slab test of the segment origin + t * (p - origin), t in [0, 1], against the box.
+    const Eigen::Vector3f d = cloud[i].getVector3fMap() - origin;
+    float t0 = 0.f, t1 = 1.f;
+    for (int k = 0; k < 3 && t0 <= t1; ++k) {
+      if (std::abs(d[k]) < 1e-9f) {
+        if (origin[k] < lo[k] || origin[k] > hi[k]) t0 = 2.f;
+        continue;
+      }
+      float a = (lo[k] - origin[k]) / d[k], b = (hi[k] - origin[k]) / d[k];
+      if (a > b) std::swap(a, b);
+      t0 = std::max(t0, a);
+      t1 = std::min(t1, b);
+    }
+    if (t0 <= t1 && ++count >= enough) break;
+  }
+  return count;
+}
+
 std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
                                         const std::vector<int>& owner, int num_gaussians,
                                         const SegmentationParams& params, double* link_radius_m,
-                                        double sweep_spacing_m) {
+                                        const SweepContext& sweep) {
   double link_radius = 0.0;
+  const double spacing = sweep.kept ? sweepSpacing(cloud, *sweep.kept, points)
+                                    : std::numeric_limits<double>::infinity();
   const std::vector<Indices> pieces =
-      linkComponents(cloud, points, params.link_factor, 1, &link_radius, sweep_spacing_m);
+      linkComponents(cloud, points, params.link_factor, 1, &link_radius, spacing);
   if (link_radius_m) *link_radius_m = link_radius;
   const std::size_t np = pieces.size();
   std::vector<int> dominant(np), parent(np);
@@ -198,6 +225,19 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
   };
+  std::vector<char> novel_mask;
+  const bool can_look = sweep.kept && sweep.origin_known;
+  if (can_look) {
+    novel_mask.assign(cloud.size(), 0);
+    for (int i : points) novel_mask[i] = 1;
+  }
+  // The box between two pieces' bounding boxes: per axis their gap, or their overlap.
+  auto seenThrough = [&](std::size_t a, std::size_t b) {
+    const Eigen::Vector3f inner_lo = hi[a].cwiseMin(hi[b]), inner_hi = lo[a].cwiseMax(lo[b]);
+    return beamsThroughBox(cloud, *sweep.kept, novel_mask, sweep.origin,
+                           inner_lo.cwiseMin(inner_hi), inner_lo.cwiseMax(inner_hi),
+                           kSeenGapBeams) >= kSeenGapBeams;
+  };
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
   for (std::size_t a = 0; a < np; ++a) {
@@ -207,10 +247,11 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       if (sep.norm() > gap) continue;
       // Same Gaussian, footprints close: one object seen through the gaps between lines.
       // Any Gaussians, footprints overlapping, one piece above the other: one object cut
-      // by a gap between two tilt lines (a person's trunk and legs). Objects side by side
-      // share heights, so this never joins them.
+      // by a gap between two tilt lines (a person's trunk and legs), unless the sweep saw
+      // through that gap. Objects side by side share heights, so this never joins them.
       const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
-      const bool stacked = sep.head<2>().isZero() && sep.z() > 0.f;
+      const bool stacked =
+          sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
       if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
     }
   }

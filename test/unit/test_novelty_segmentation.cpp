@@ -56,8 +56,9 @@ TEST(SegmentNovelPoints, ScatteredPointsDoNotJoinADenseObject) {
   ASSERT_GT(novel.size() - patch.size(), patch.size());  // the stray samples dominate
   SegmentationParams p;
   double radius = 0.0;
-  const std::vector<Indices> own =
-      segmentNovelPoints(c, novel, owner, 2, p, &radius, sweepSpacing(c, all, novel));
+  SweepContext sweep;
+  sweep.kept = &all;
+  const std::vector<Indices> own = segmentNovelPoints(c, novel, owner, 2, p, &radius, sweep);
   EXPECT_NEAR(radius, p.link_factor * 0.05, 1e-6);
   ASSERT_EQ(own.size(), 1u);
   EXPECT_EQ(own[0], patch);
@@ -65,4 +66,87 @@ TEST(SegmentNovelPoints, ScatteredPointsDoNotJoinADenseObject) {
   const std::vector<Indices> mutual = segmentNovelPoints(c, novel, owner, 2, p, &radius);
   ASSERT_FALSE(mutual.empty());
   EXPECT_GT(mutual[0].size(), patch.size() + 10);
+}
+
+namespace {
+
+/// Two novel pieces of different Gaussians one above the other, 5 cm samples: a lower one
+/// (x 3.0-3.2, y -0.2-0.2, z 0-0.5) and an upper one (same footprint, z 0.9-1.2), 0.4 m
+/// apart (within merge_gap_factor link radii). With `wall`, the sweep also holds a wall at
+/// x = 5 (y -1-1, z -0.5-2, 5 cm samples) without the returns the pieces hide from the
+/// sensor at (0, 0, 0.7).
+struct StackedScene {
+  Cloud cloud;
+  Indices all, novel;
+  std::vector<int> owner;
+};
+
+StackedScene stackedPieces(bool wall) {
+  StackedScene s;
+  const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
+  auto add = [&](float x, float y, float z, int owner) {
+    if (owner >= 0) s.novel.push_back(static_cast<int>(s.cloud.size())), s.owner.push_back(owner);
+    s.cloud.push_back(PointT(x, y, z));
+  };
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; j <= 8; ++j) {
+      for (int k = 0; k <= 10; ++k) add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.05f * k, 0);
+      for (int k = 0; k <= 6; ++k) add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.9f + 0.05f * k, 1);
+    }
+  if (wall) {
+    for (int j = 0; j <= 40; ++j)
+      for (int k = 0; k <= 50; ++k) {
+        const Eigen::Vector3f p(5.f, -1.f + 0.05f * j, -0.5f + 0.05f * k);
+        // Where the beam crosses x = 3-3.2, it must miss both pieces.
+        bool hidden = false;
+        for (float x : {3.0f, 3.2f}) {
+          const Eigen::Vector3f q =
+              origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x()));
+          const bool in_y = std::abs(q.y()) <= 0.2f;
+          hidden |= in_y && ((q.z() >= 0.f && q.z() <= 0.5f) || (q.z() >= 0.9f && q.z() <= 1.2f));
+        }
+        if (!hidden) add(p.x(), p.y(), p.z(), -1);
+      }
+  }
+  s.cloud.width = s.cloud.size(), s.cloud.height = 1;
+  s.all.resize(s.cloud.size());
+  for (std::size_t i = 0; i < s.cloud.size(); ++i) s.all[i] = static_cast<int>(i);
+  s.cloud.sensor_origin_.head<3>() = origin;
+  return s;
+}
+
+}  // namespace
+
+// Stacked pieces merge when nothing says the gap between them is empty (one object cut by a
+// gap between tilt lines), and stay apart when the sweep's beams crossed that gap to a wall
+// behind (a person below a stray difference higher up).
+TEST(SegmentNovelPoints, StackedPiecesStayApartWhenTheSweepSawThroughTheGap) {
+  SegmentationParams p;
+  const std::size_t lower = 5 * 9 * 11, upper = 5 * 9 * 7;
+  for (const bool wall : {false, true}) {
+    const StackedScene s = stackedPieces(wall);
+    SweepContext sweep;
+    sweep.kept = &s.all;
+    sweep.origin_known = true;
+    sweep.origin = s.cloud.sensor_origin_.head<3>();
+    double radius = 0.0;
+    const std::vector<Indices> seen =
+        segmentNovelPoints(s.cloud, s.novel, s.owner, 2, p, &radius, sweep);
+    ASSERT_LT(p.merge_gap_factor * radius, 0.6);  // the gap itself is within merge range
+    ASSERT_GT(p.merge_gap_factor * radius, 0.4);
+    if (wall) {
+      ASSERT_EQ(seen.size(), 2u);
+      EXPECT_EQ(seen[0].size(), lower);
+      EXPECT_EQ(seen[1].size(), upper);
+      // Without the sensor origin nothing is known of the gap: merged.
+      sweep.origin_known = false;
+      const std::vector<Indices> blind =
+          segmentNovelPoints(s.cloud, s.novel, s.owner, 2, p, &radius, sweep);
+      ASSERT_EQ(blind.size(), 1u);
+      EXPECT_EQ(blind[0].size(), lower + upper);
+    } else {
+      ASSERT_EQ(seen.size(), 1u);
+      EXPECT_EQ(seen[0].size(), lower + upper);
+    }
+  }
 }

@@ -69,19 +69,40 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
 /// across metres, so the link radius takes the smaller of the two.
 double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points);
 
+/// The sweep the novel points were found in: its kept points (cloud indices) and, when known,
+/// its sensor origin (in the cloud's frame).
+struct SweepContext {
+  const Indices* kept = nullptr;
+  bool origin_known = false;
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+};
+
+/// Returns of cloud[kept] that are not in `novel_mask` (one flag per cloud point) and whose
+/// beam from `origin` ends in or passes through the box [lo, hi]; counting stops at `enough`.
+std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
+                            const std::vector<char>& novel_mask, const Eigen::Vector3f& origin,
+                            const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                            std::size_t enough);
+
 /// Segments of novel points (`points` ascending, `owner[k]` the most probable novel Gaussian
 /// of points[k], in [0, num_gaussians)): connected pieces (linkComponents with
-/// params.link_factor); pieces whose points mostly belong to the same novel Gaussian and whose
-/// bounding boxes lie within merge_gap_factor link radii (and their footprints on the floor
-/// within merge_floor_gap_factor) are one object seen through the gaps between tilt lines and
-/// merge (union-find); two objects side by side that share a Gaussian stay apart. Pieces of
-/// any Gaussians stacked one above the other (footprints overlapping, vertical gap within
-/// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines. Segments
-/// under min_segment_points are dropped; largest first. `link_radius_m` gets the link radius.
-std::vector<Indices> segmentNovelPoints(
-    const Cloud& cloud, const Indices& points, const std::vector<int>& owner, int num_gaussians,
-    const SegmentationParams& params, double* link_radius_m = nullptr,
-    double sweep_spacing_m = std::numeric_limits<double>::infinity());
+/// params.link_factor, the spacing capped by sweepSpacing over sweep.kept when given); pieces
+/// whose points mostly belong to the same novel Gaussian and whose bounding boxes lie within
+/// merge_gap_factor link radii (and their footprints on the floor within
+/// merge_floor_gap_factor) are one object seen through the gaps between tilt lines and merge
+/// (union-find); two objects side by side that share a Gaussian stay apart. Pieces of any
+/// Gaussians stacked one above the other (footprints overlapping, vertical gap within
+/// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines; but
+/// when the sweep's origin is known and kSeenGapBeams or more of its beams (not novel ones)
+/// end in or pass through the gap between them, the sweep saw that gap: two things one above
+/// the other (a person below a stray difference on the wall), not merged. Segments under
+/// min_segment_points are dropped; largest first. `link_radius_m` gets the link radius.
+constexpr std::size_t kSeenGapBeams = 3;
+std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
+                                        const std::vector<int>& owner, int num_gaussians,
+                                        const SegmentationParams& params,
+                                        double* link_radius_m = nullptr,
+                                        const SweepContext& sweep = {});
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).
