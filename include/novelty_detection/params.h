@@ -40,7 +40,7 @@ struct PreprocessParams {
   bool outlier_removal = true;
   int outlier_k = 8;
   double outlier_std_mul = 3.0;
-  bool outlier_range_scaled = false;
+  bool outlier_range_scaled = true;
   bool ground_removal = true;
   double ground_distance_m = 0.03;
   double ground_max_angle_deg = 10.0;
@@ -86,8 +86,9 @@ struct PreprocessParams {
       {"a point is an outlier when its mean distance exceeds mu + outlier_std_mul * sigma", 0.0,
        100.0});
     f("outlier_range_scaled", outlier_range_scaled,
-      {"divide each mean distance by the point's range from the cloud's sensor origin (the "
-       "spacing of a scanning sensor grows with range)"});
+      {"with a known sensor origin, a point is an outlier only if it is one also among the "
+       "mean distances divided by range (the spacing of a scanning sensor grows with range; a "
+       "far, sparsely sampled object is not an outlier)"});
     f("ground_removal", ground_removal, {"enable RANSAC ground plane removal"});
     f("ground_distance_m", ground_distance_m,
       {"RANSAC inlier distance to the plane, and the lower bound of the final ground threshold "

@@ -96,22 +96,34 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
   // the distribution of those means.
   std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  auto limitOf = [n, std_mul](const std::vector<double>& v) {
+    double mu = 0.0;
+    for (double x : v) mu += x;
+    mu /= n;
+    double var = 0.0;
+    for (double x : v) var += (x - mu) * (x - mu);
+    return mu + std_mul * std::sqrt(var / n);
+  };
+  const double limit = limitOf(mean_dist);
+  // With a sensor origin, a point is an outlier only when it is one among the distances
+  // divided by range too: a far, sparsely sampled object stays (its spacing is what the
+  // range gives), and so do near points that are sparse only next to far ones.
+  std::vector<double> scaled;
+  double scaled_limit = 0.0;
   if (origin) {
-    for (int j = 0; j < n; ++j) {
-      mean_dist[j] /= std::max(1.0, static_cast<double>((pts[j] - *origin).norm()));
-    }
+    scaled = mean_dist;
+    for (int j = 0; j < n; ++j)
+      scaled[j] /= std::max(1.0, static_cast<double>((pts[j] - *origin).norm()));
+    scaled_limit = limitOf(scaled);
   }
-  double mu = 0.0;
-  for (double v : mean_dist) mu += v;
-  mu /= n;
-  double var = 0.0;
-  for (double v : mean_dist) var += (v - mu) * (v - mu);
-  const double limit = mu + std_mul * std::sqrt(var / n);
+  auto inlier = [&](int j) {
+    return mean_dist[j] <= limit || (origin && scaled[j] <= scaled_limit);
+  };
 
   Indices kept;
   kept.reserve(n);
   for (int j = 0; j < n; ++j) {
-    if (mean_dist[j] <= limit) {
+    if (inlier(j)) {
       kept.push_back(valid[j]);
     } else if (removed) {
       removed->push_back(valid[j]);
@@ -142,6 +154,8 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud) const {
 
 PreprocessResult Preprocessor::compute(const Cloud& cloud,
                                        const Eigen::Vector3f& sensor_origin) const {
+  if (!sensor_origin.allFinite())
+    throw std::invalid_argument("Preprocessor: the sensor origin is not finite");
   return compute(cloud, sensor_origin, sensor_origin.allFinite() && !sensor_origin.isZero());
 }
 
@@ -157,7 +171,7 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f
   Indices current =
       removeDuplicates(cloud, result.finite, &result.duplicates, &result.duplicate_of);
   if (params_.outlier_removal) {
-    current = params_.outlier_range_scaled
+    current = params_.outlier_range_scaled && origin_known
                   ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
                                                     params_.outlier_std_mul, sensor_origin,
                                                     &result.outliers)

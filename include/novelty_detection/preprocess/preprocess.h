@@ -42,9 +42,12 @@ Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* du
 Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
                              Indices* removed = nullptr);
 
-/// As above, each mean distance divided by the point's range from `sensor_origin` (at least
-/// 1 m): a scanning sensor samples at fixed angles, so its spacing grows with range, and
-/// Rusu's global statistic would otherwise take far, sparsely sampled walls for outliers.
+/// As above, but a point is removed only when it is an outlier both by that statistic and by
+/// the same statistic over the mean distances divided by each point's range from
+/// `sensor_origin` (at least 1 m): a scanning sensor samples at fixed angles, so its spacing
+/// grows with range, and the global statistic alone would take far, sparsely sampled walls
+/// and objects (a person 5 m away) for outliers; the range-divided one alone would drop near
+/// points that are sparse only next to far ones.
 Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
                                         double std_mul, const Eigen::Vector3f& sensor_origin,
                                         Indices* removed = nullptr);
