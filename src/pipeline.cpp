@@ -182,6 +182,23 @@ void segmentCandidates(Detection& d) {
   sweep.origin = current.sensor_origin_.head<3>();
   d.pieces = segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians,
                                 d.params.segmentation, &d.link_radius, sweep);
+  // Only points on a surface the reference saw join: within tau of the map, and (when the
+  // reference has a viewpoint) where its view holds a return or free space, not where it
+  // was blind (newly visible points). Points farther away that are not novel were turned
+  // down by the visibility rule or the posterior, and stay so.
+  const ReferenceModel& ref = d.ref;
+  const double tau = d.tau, margin = d.params.visibility.margin_factor * d.tau;
+  completeObjects(
+      current, d.s.pre.kept, d.link_radius, d.params.segmentation.object_share,
+      [&](int i) {
+        const Eigen::Vector3f p = point3f(current[i]);
+        if (ref.points.distance(p) > tau) return false;
+        if (ref.visibility.empty()) return true;
+        const Visibility v =
+            ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell);
+        return v != Visibility::kUnknown;
+      },
+      &d.pieces);
   d.owner_of.assign(current.size(), -1);
   for (std::size_t k = 0; k < cand.novel.size(); ++k) d.owner_of[cand.novel[k]] = cand.owner[k];
   d.timer.lap("segmentation");
@@ -249,7 +266,7 @@ void labelSegments(Detection& d) {
     std::vector<int> votes(result.current_gmm.size(), 0);
     for (int i : seg.indices) {
       result.labels[i] = seg.id;
-      ++votes[d.owner_of[i]];
+      if (d.owner_of[i] >= 0) ++votes[d.owner_of[i]];  // completed objects' points own none
     }
     for (std::size_t k = 0; k < votes.size(); ++k) {
       if (votes[k] > 0) {

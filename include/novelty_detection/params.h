@@ -42,7 +42,7 @@ struct PreprocessParams {
   double outlier_std_mul = 3.0;
   bool outlier_range_scaled = true;
   bool ground_removal = true;
-  double ground_distance_m = 0.03;
+  double ground_distance_m = 0.02;
   double ground_max_angle_deg = 10.0;
   int ground_max_iterations = 200;
   double ground_noise_k = 3.0;
@@ -270,6 +270,7 @@ struct SegmentationParams {
   double merge_gap_factor = 4.0;
   double merge_floor_gap_factor = 2.0;
   int min_segment_points = 20;
+  double object_share = 0.6;
   double map_likelihood_quantile = 0.0;
   bool visibility_check = true;
   HiddenParams hidden;
@@ -297,6 +298,12 @@ struct SegmentationParams {
        0.0, 1000.0});
     f("min_segment_points", min_segment_points,
       {"segments with fewer points are dropped", 1, 100000000});
+    f("object_share", object_share,
+      {"a segment whose novel points make up at least this share of the object they lie on "
+       "(its connected piece of the sweep without the ground, at the link radius) takes the "
+       "whole object: the parts of a new object that lie on a surface the map had (where an "
+       "old object stood) are new too (1 disables)",
+       0.0, 1.0});
     f("map_likelihood_quantile", map_likelihood_quantile,
       {"a point whose density under the reference mixture exceeds this quantile of the map's "
        "own points' densities lies on a mapped surface and is not novel (0 disables)",

@@ -271,6 +271,72 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
   return comps;
 }
 
+void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius_m,
+                     double min_share, const std::function<bool(int)>& may_join,
+                     std::vector<Indices>* segments) {
+  if (!segments || segments->empty() || min_share >= 1.0 || !(link_radius_m > 0) || kept.size() < 2)
+    return;
+  std::vector<int> owner(cloud.size(), -1);  // segment of each novel point
+  std::size_t novel = 0;
+  for (std::size_t s = 0; s < segments->size(); ++s)
+    for (int i : (*segments)[s]) owner[i] = static_cast<int>(s), ++novel;
+  Cloud::Ptr pts(new Cloud);
+  pts->reserve(kept.size());
+  for (int i : kept) pts->push_back(cloud[i]);
+  pcl::KdTreeFLANN<PointT> tree;
+  tree.setInputCloud(pts);
+  std::vector<int> nn;
+  std::vector<float> d2;
+  std::vector<char> seen(kept.size(), 0);
+  // An object can only qualify while it has at most novel / min_share points.
+  const std::size_t cap = static_cast<std::size_t>(static_cast<double>(novel) / min_share) + 1;
+  std::vector<Indices> grown = *segments;
+  std::vector<char> in_piece(kept.size(), 0), done(kept.size(), 0);
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    if (seen[k] || owner[kept[k]] < 0) continue;
+    // The object (connected piece) through kept[k], breadth first; given up past `cap` or
+    // on reaching a piece given up before (seen 2: too large to qualify).
+    std::vector<int> piece{static_cast<int>(k)};
+    seen[k] = 1;
+    bool too_large = false;
+    for (std::size_t h = 0; h < piece.size() && !too_large; ++h) {
+      tree.radiusSearch((*pts)[piece[h]], link_radius_m, nn, d2);
+      for (int j : nn) {
+        too_large |= seen[j] == 2;
+        if (!seen[j]) seen[j] = 1, piece.push_back(j);
+      }
+      too_large |= piece.size() > cap;
+    }
+    if (too_large) {
+      for (int j : piece) seen[j] = 2;
+      continue;
+    }
+    std::size_t in_segments = 0;
+    for (int j : piece) in_segments += owner[kept[j]] >= 0;
+    if (static_cast<double>(in_segments) < min_share * static_cast<double>(piece.size())) continue;
+    // The rest of the object joins the segments, grown from all of them at once (through
+    // every point of the object; the ones may_join turns down are passed, not taken).
+    std::vector<int> front, from;
+    for (int j : piece) {
+      in_piece[j] = 1;
+      if (owner[kept[j]] >= 0) front.push_back(j), from.push_back(owner[kept[j]]), done[j] = 1;
+    }
+    for (std::size_t h = 0; h < front.size(); ++h) {
+      tree.radiusSearch((*pts)[front[h]], link_radius_m, nn, d2);
+      for (int j : nn) {
+        if (!in_piece[j] || done[j]) continue;
+        done[j] = 1;
+        front.push_back(j);
+        from.push_back(from[h]);
+        if (may_join(kept[j])) grown[static_cast<std::size_t>(from[h])].push_back(kept[j]);
+      }
+    }
+    for (int j : piece) in_piece[j] = 0;
+  }
+  for (Indices& g : grown) std::sort(g.begin(), g.end());
+  *segments = std::move(grown);
+}
+
 void labelDuplicates(const Indices& duplicates, const Indices& duplicate_of,
                      std::vector<int>& labels, std::vector<Segment>& segments) {
   bool any = false;

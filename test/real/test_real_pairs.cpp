@@ -100,11 +100,13 @@ TEST_P(KinectPairs, SensorFrameAndAutoUp) {
   EXPECT_GE(s.f1, c.min_f1);
 }
 
+// Measured F1: 0.977, 0.894 (the new box stands where the old one stood), 0.864 (a new mug
+// on an unchanged tin is found only where it differs from the old can there).
 INSTANTIATE_TEST_SUITE_P(Osd, KinectPairs,
-                         ::testing::Values(KinectCase{"test14.pcd", "test15.pcd", {2}, 0.93},
-                                           KinectCase{"learn11.pcd", "learn12.pcd", {3}, 0.78},
+                         ::testing::Values(KinectCase{"test14.pcd", "test15.pcd", {2}, 0.95},
+                                           KinectCase{"learn11.pcd", "learn12.pcd", {3}, 0.86},
                                            KinectCase{
-                                               "test31.pcd", "test32.pcd", {3, 4, 5}, 0.80}));
+                                               "test31.pcd", "test32.pcd", {3, 4, 5}, 0.83}));
 
 // The ETH apartment pair: the same place seen from two poses a few seconds apart, each in its
 // own sensor frame; cloud_1 is put into cloud_0's frame with the published registration.

@@ -150,3 +150,50 @@ TEST(SegmentNovelPoints, StackedPiecesStayApartWhenTheSweepSawThroughTheGap) {
     }
   }
 }
+
+namespace {
+
+/// Points of a 5 cm grid on the plane x = x0 over y in [y0, y1], z in [z0, z1].
+void addWall(Cloud* c, float x0, float y0, float y1, float z0, float z1) {
+  for (float y = y0; y <= y1 + 1e-4f; y += 0.05f)
+    for (float z = z0; z <= z1 + 1e-4f; z += 0.05f) c->push_back(PointT(x0, y, z));
+}
+
+}  // namespace
+
+// A new object of which most points were found novel takes its other points (the part on a
+// surface the map had); an unchanged object touched by a small new one stays as it is; points
+// the caller refuses are passed through, not taken.
+TEST(CompleteObjects, MostlyNovelObjectsAreTakenWhole) {
+  Cloud c;
+  addWall(&c, 1.f, 0.f, 0.5f, 0.f, 0.45f);  // object A: 11 x 10 samples, indices 0..109
+  const int a_end = static_cast<int>(c.size());
+  addWall(&c, 3.f, 0.f, 1.f, 0.f, 0.95f);  // object B (unchanged): 21 x 20 samples
+  const int b_end = static_cast<int>(c.size());
+  addWall(&c, 3.f, 1.05f, 1.2f, 0.f, 0.2f);  // a small new object C touching B: 4 x 5
+  c.width = c.size(), c.height = 1;
+  Indices kept(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) kept[i] = static_cast<int>(i);
+  // A: its upper 7 rows of 10 novel (70 %); C: all of it novel (20 points against B's 420).
+  Indices a_novel, c_all;
+  for (int i = 0; i < a_end; ++i)
+    if (i % 10 >= 3) a_novel.push_back(i);
+  for (int i = b_end; i < static_cast<int>(c.size()); ++i) c_all.push_back(i);
+  const double radius = 0.06;
+  auto all = [](int) { return true; };
+  std::vector<Indices> segs{a_novel, c_all};
+  completeObjects(c, kept, radius, 0.6, all, &segs);
+  ASSERT_EQ(segs.size(), 2u);
+  EXPECT_EQ(segs[0].size(), static_cast<std::size_t>(a_end));  // A whole
+  EXPECT_EQ(segs[1], c_all);                                   // B not taken
+  // Below the share nothing changes.
+  std::vector<Indices> strict{a_novel, c_all};
+  completeObjects(c, kept, radius, 0.8, all, &strict);
+  EXPECT_EQ(strict[0], a_novel);
+  // A refused row (z = 0.1: index % 10 == 2) is passed: the rows below it still join.
+  std::vector<Indices> gated{a_novel, c_all};
+  completeObjects(
+      c, kept, radius, 0.6, [](int i) { return i % 10 != 2; }, &gated);
+  EXPECT_EQ(gated[0].size(), static_cast<std::size_t>(a_end) - 11);
+  for (int i : gated[0]) EXPECT_NE(i % 10, 2);
+}

@@ -15,6 +15,7 @@
 //    min_segment_points are dropped.
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -103,6 +104,18 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
                                         const SegmentationParams& params,
                                         double* link_radius_m = nullptr,
                                         const SweepContext& sweep = {});
+
+/// Object completion: each connected piece of cloud[kept] (the sweep without its ground,
+/// points linked within `link_radius_m`) that holds novel points of `segments` and of which
+/// those make up at least `min_share` is one new object: its other points for which
+/// `may_join(index)` holds join the segment they are nearest to along the piece (grown
+/// breadth first from all its segments at once). A new object that stands where an old one
+/// stood has surfaces the map had (within tau of it); they are part of the new object all the
+/// same. An object that is mostly unchanged (a tin with a new mug on it) stays as it is.
+/// min_share >= 1 leaves the segments as they are.
+void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius_m,
+                     double min_share, const std::function<bool(int)>& may_join,
+                     std::vector<Indices>* segments);
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).
