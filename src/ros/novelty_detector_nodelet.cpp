@@ -37,6 +37,13 @@ const char* reasonName(tf2_ros::filter_failure_reasons::FilterFailureReason reas
   }
 }
 
+/// "~a, ~b" for the names a, b.
+std::string joinNames(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "~" : ", ~") + n;
+  return out;
+}
+
 /// Box of the usable points (finite, within kMaxCoordinateM); false when there is none.
 bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
   lo.setConstant(std::numeric_limits<double>::infinity());
@@ -84,6 +91,13 @@ void NoveltyDetectorNodelet::onInit() {
   try {
     params_ = loadRosParams(pnh);
     node_params_ = loadNodeParams(pnh);
+    unknown_params_ = unknownDetectorParams(pnh);
+    if (!unknown_params_.empty() && pnh.param("strict_parameters", false))
+      throw std::invalid_argument("unknown parameter(s) " + joinNames(unknown_params_) +
+                                  " (~strict_parameters is set)");
+    for (const std::string& name : unknown_params_)
+      NODELET_WARN("parameter ~%s is not a parameter of the detector: ignored (misspelt?)",
+                   name.c_str());
     reference_ = std::make_unique<TiledReference>(
         params_, node_params_.tile_size_m, static_cast<std::size_t>(node_params_.tile_cache_size));
   } catch (const std::exception& e) {
@@ -146,7 +160,10 @@ void NoveltyDetectorNodelet::onInit() {
       });
   input_sub_ = pnh.subscribe("input", 2, &NoveltyDetectorNodelet::onInput, this);
 
-  publishStatus("ready");
+  publishStatus(unknown_params_.empty()
+                    ? std::string("ready")
+                    : "ready; unknown parameters ignored: " + joinNames(unknown_params_) +
+                          " (~strict_parameters refuses them)");
   NODELET_INFO("novelty detector ready: fixed frame '%s', input %s",
                node_params_.fixed_frame.c_str(), input_sub_.getTopic().c_str());
 }
@@ -238,6 +255,7 @@ void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
     NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
   } catch (const std::exception& e) {
     NODELET_ERROR("cannot use reference file: %s", e.what());
+    publishStatus("error: cannot use ~reference_file '" + path + "': " + e.what());
     std::lock_guard<std::mutex> lock(stats_mutex_);
     last_error_ = e.what();
   }

@@ -2,10 +2,13 @@
 
 #include "novelty_detection/ros/node_params.h"
 
+#include <ros/param.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -100,6 +103,26 @@ Params loadRosParams(const ros::NodeHandle& nh) {
   });
   params.validate();
   return params;
+}
+
+std::vector<std::string> unknownDetectorParams(const ros::NodeHandle& nh) {
+  std::set<std::string> known{"strict_parameters"};
+  Params().visit([&known](const char* group, const char* name, auto&, const ParamInfo&) {
+    known.insert(std::string(group) + "/" + name);
+  });
+  NodeParams().visit([&known](const char* name, auto&, const char*) { known.insert(name); });
+  std::vector<std::string> names;
+  if (!ros::param::getParamNames(names)) return {};
+  const std::string prefix = nh.getNamespace() == "/" ? "/" : nh.getNamespace() + "/";
+  std::vector<std::string> unknown;
+  for (const std::string& full : names) {
+    if (full.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rel = full.substr(prefix.size());
+    if (rel.rfind("tuning/", 0) == 0 || known.count(rel)) continue;
+    unknown.push_back(rel);
+  }
+  std::sort(unknown.begin(), unknown.end());
+  return unknown;
 }
 
 void NodeParams::validate() const {

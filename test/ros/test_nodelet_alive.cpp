@@ -1,5 +1,7 @@
 // The detector nodelet loads into a real manager and announces itself; invalid parameters
-// (a value out of range, a wrong type) make it refuse to start with a message naming them.
+// (a value out of range, a wrong type) make it refuse to start with a message naming them; a
+// misspelt parameter is named in its status (and refused with ~strict_parameters); a missing
+// reference file is reported on ~status.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <std_msgs/String.h>
@@ -7,14 +9,17 @@
 #include <string>
 
 namespace {
-std::string statusOf(const std::string& node) {
+/// The node's latest status once it starts with `prefix` (any status when empty), or the
+/// last one heard when 30 s pass.
+std::string statusOf(const std::string& node, const std::string& prefix = "") {
   ros::NodeHandle nh;
   std::string status;
   ros::Subscriber sub = nh.subscribe<std_msgs::String>(
       "/" + node + "/status", 1,
       [&](const std_msgs::String::ConstPtr& msg) { status = msg->data; });
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (status.empty() && ros::WallTime::now() < deadline && ros::ok()) {
+  while ((status.empty() || status.rfind(prefix, 0) != 0) && ros::WallTime::now() < deadline &&
+         ros::ok()) {
     ros::spinOnce();
     ros::WallDuration(0.05).sleep();
   }
@@ -34,6 +39,26 @@ TEST(NodeletAlive, RefusesAWrongType) {
   const std::string status = statusOf("bad_type");
   EXPECT_NE(status.find("/bad_type/preprocess/outlier_k' must be an integer, got a string"),
             std::string::npos)
+      << status;
+}
+
+TEST(NodeletAlive, NamesAMisspeltParameter) {
+  const std::string status = statusOf("misspelt");
+  EXPECT_EQ(status,
+            "ready; unknown parameters ignored: ~gmm/max_component "
+            "(~strict_parameters refuses them)");
+}
+
+TEST(NodeletAlive, StrictParametersRefuseAMisspeltOne) {
+  const std::string status = statusOf("strict");
+  EXPECT_EQ(status.rfind("error: invalid parameters: unknown parameter(s) ~gmm/max_component", 0),
+            0u)
+      << status;
+}
+
+TEST(NodeletAlive, ReportsAMissingReferenceFile) {
+  const std::string status = statusOf("missing_map", "error");
+  EXPECT_EQ(status.rfind("error: cannot use ~reference_file '/nonexistent/novelty_map.pcd'", 0), 0u)
       << status;
 }
 

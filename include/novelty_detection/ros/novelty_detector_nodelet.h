@@ -83,7 +83,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
 
   NodeParams node_params_;
   Params params_;
-  std::string params_error_;  // non-empty: refused to start
+  std::string params_error_;                 // non-empty: refused to start
+  std::vector<std::string> unknown_params_;  // under ~, read by nothing (warned about)
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
