@@ -13,6 +13,7 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -35,11 +36,52 @@ std::string lowerExtension(const std::string& path) {
   throw std::runtime_error("cannot read '" + path + "': " + what);
 }
 
-bool hasFloatField(const pcl::PCLPointCloud2& msg, const std::string& name) {
-  for (const auto& f : msg.fields) {
-    if (f.name == name) return f.datatype == pcl::PCLPointField::FLOAT32 && f.count >= 1;
+/// The field `name` of a PLY blob when it is a float or a double (one value); refuses a
+/// missing, non-floating or repeated one.
+const pcl::PCLPointField& coordinateField(const std::string& path, const pcl::PCLPointCloud2& blob,
+                                          const char* name) {
+  const pcl::PCLPointField* found = nullptr;
+  for (const auto& f : blob.fields) {
+    if (f.name != name) continue;
+    if (found) fail(path, std::string("field '") + name + "' given twice");
+    found = &f;
   }
-  return false;
+  if (!found || found->count < 1 ||
+      (found->datatype != pcl::PCLPointField::FLOAT32 &&
+       found->datatype != pcl::PCLPointField::FLOAT64))
+    fail(path, "it has no float or double x, y, z fields");
+  const std::size_t size = found->datatype == pcl::PCLPointField::FLOAT32 ? 4 : 8;
+  if (static_cast<std::size_t>(found->offset) + size > blob.point_step)
+    fail(path, std::string("field '") + name + "' lies outside the point");
+  return *found;
+}
+
+/// x, y, z of every point of a PLY blob (float or double fields), as the cloud's floats.
+Cloud xyzFromBlob(const std::string& path, const pcl::PCLPointCloud2& blob) {
+  const pcl::PCLPointField* f[3] = {&coordinateField(path, blob, "x"),
+                                    &coordinateField(path, blob, "y"),
+                                    &coordinateField(path, blob, "z")};
+  Cloud cloud;
+  const std::size_t n = static_cast<std::size_t>(blob.width) * blob.height;
+  cloud.resize(n);
+  cloud.width = blob.width;
+  cloud.height = blob.height;
+  cloud.is_dense = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint8_t* point = blob.data.data() + i * blob.point_step;
+    float* out = cloud[i].data;
+    for (int k = 0; k < 3; ++k) {
+      const std::uint8_t* at = point + f[k]->offset;
+      if (f[k]->datatype == pcl::PCLPointField::FLOAT32) {
+        std::memcpy(&out[k], at, sizeof(float));
+      } else {
+        double v;
+        std::memcpy(&v, at, sizeof(double));
+        out[k] = static_cast<float>(v);  // beyond float range: +-inf, refused downstream
+      }
+    }
+  }
+  return cloud;
 }
 
 // The PLY counterpart: PCL allocates element storage from the header's counts before
@@ -55,6 +97,7 @@ void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
   std::uintmax_t min_body_bytes = 0;
   std::uintmax_t current_count = 0;
   bool current_is_list = false;
+  std::set<std::string> properties;  // of the current element
   while (std::getline(in, line)) {
     header_bytes += line.size() + 1;
     if (++lines > 256 || header_bytes > 65536) fail(path, "malformed ply header (too long)");
@@ -91,10 +134,18 @@ void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
       if (name == "vertex") vertex = true;
       current_count = static_cast<std::uintmax_t>(n);
       current_is_list = false;
+      properties.clear();
     } else if (key == "property") {
-      std::string type;
+      std::string type, name;
       ls >> type;
-      if (type == "list") current_is_list = true;
+      if (type == "list") {
+        current_is_list = true;
+        std::string count_type, item_type;
+        ls >> count_type >> item_type;
+      }
+      ls >> name;
+      if (!properties.insert(name).second)
+        fail(path, "field '" + name.substr(0, 32) + "' given twice");
       // Every property of every element takes at least one byte (binary) or char (ascii).
       if (!current_is_list) min_body_bytes += current_count;
     } else if (key == "end_header") {
@@ -145,15 +196,11 @@ CloudFile loadCloudFile(const std::string& path) {
     fail(path, e.what());
   }
   if (rc < 0) fail(path, "malformed or truncated " + ext + " file");
-  if (!hasFloatField(blob, "x") || !hasFloatField(blob, "y") || !hasFloatField(blob, "z")) {
-    fail(path, "it has no float x, y, z fields");
-  }
   const std::size_t expected = static_cast<std::size_t>(blob.width) * blob.height * blob.point_step;
   if (blob.data.size() < expected) fail(path, "data shorter than its header declares");
 
   CloudFile out;
-  // An empty cloud is valid; PCL's conversion would index its empty buffers.
-  if (blob.width * blob.height > 0) pcl::fromPCLPointCloud2(blob, out.cloud);
+  out.cloud = xyzFromBlob(path, blob);  // float or double x, y, z (Open3D writes doubles)
   const Eigen::Quaterniond q = orientation.cast<double>();
   out.T_frame_sensor.linear() =
       q.norm() > 0.5 ? q.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();

@@ -150,6 +150,9 @@ PcdHeader parseHeader(const std::string& path, std::istream& in) {
     if (!counts.empty())
       f.count = static_cast<int>(parseInteger(path, counts[i], "COUNT", 1 << 20));
     if (f.count < 1) fail(path, "malformed pcd header (bad COUNT)");
+    for (const PcdField& other : h.fields)
+      if (other.name == f.name && f.name != "_")  // "_": PCL's padding, repeated by design
+        fail(path, "malformed pcd header (field '" + f.name.substr(0, 32) + "' given twice)");
     f.byte_offset = h.point_step;
     f.value_offset = h.values_per_point;
     h.point_step += static_cast<std::size_t>(f.size) * static_cast<std::size_t>(f.count);

@@ -59,6 +59,41 @@ TEST(CloudIo, BadFilesGiveSpecificErrors) {
   EXPECT_NE(errorOf(noxyz).find("x, y, z"), std::string::npos);
 }
 
+// Open3D writes PLY coordinates as doubles by default: they load like double PCDs.
+TEST(CloudIo, DoublePlyLoads) {
+  const std::string ply = tmpPath("double.ply");
+  std::ofstream(ply) << "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\n"
+                        "property double y\nproperty double z\nend_header\n"
+                        "1.25 -2.5 3.125\n0.1 0.2 0.3\n";
+  const Cloud c = loadCloud(ply);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_FLOAT_EQ(c[0].x, 1.25f);
+  EXPECT_FLOAT_EQ(c[0].y, -2.5f);
+  EXPECT_FLOAT_EQ(c[0].z, 3.125f);
+  EXPECT_FLOAT_EQ(c[1].z, 0.3f);
+  // Mixed: float x, double y and z.
+  const std::string mixed = tmpPath("mixed.ply");
+  std::ofstream(mixed) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                          "property double y\nproperty double z\nend_header\n4 5 6\n";
+  const Cloud m = loadCloud(mixed);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_FLOAT_EQ(m[0].x + m[0].y + m[0].z, 15.f);
+}
+
+// A field given twice is ambiguous (which x?): refused by name, PCD and PLY alike.
+TEST(CloudIo, RepeatedFieldsAreRefused) {
+  const std::string pcd = tmpPath("twice.pcd");
+  std::ofstream(pcd) << "VERSION .7\nFIELDS x y z x\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+                        "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n"
+                        "1 2 3 4\n";
+  EXPECT_NE(errorOf(pcd).find("field 'x' given twice"), std::string::npos) << errorOf(pcd);
+  const std::string ply = tmpPath("twice.ply");
+  std::ofstream(ply) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                        "property float y\nproperty float z\nproperty float z\nend_header\n"
+                        "1 2 3 4\n";
+  EXPECT_NE(errorOf(ply).find("given twice"), std::string::npos) << errorOf(ply);
+}
+
 TEST(CloudIo, FailedSaveLeavesPreviousFileIntact) {
   Cloud c;
   c.push_back(PointT(1.f, 1.f, 1.f));
