@@ -7,14 +7,17 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <locale>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -213,32 +216,84 @@ CloudFile loadCloudFile(const std::string& path) {
 
 Cloud loadCloud(const std::string& path) { return loadCloudFile(path).cloud; }
 
+namespace {
+
+/// write(2) of all `size` bytes; false on an error (errno set).
+bool writeAll(int fd, const char* data, std::size_t size) {
+  while (size > 0) {
+    const ssize_t n = ::write(fd, data, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    data += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+}  // namespace
+
 void saveCloudAtomic(const std::string& path, const Cloud& cloud,
                      const Eigen::Isometry3d& T_frame_sensor) {
-  Cloud copy = cloud;
-  copy.sensor_origin_.head<3>() = T_frame_sensor.translation().cast<float>();
-  copy.sensor_origin_[3] = 0.f;
-  copy.sensor_orientation_ = Eigen::Quaternionf(T_frame_sensor.linear().cast<float>());
-  if (copy.width * copy.height != copy.size()) {
-    copy.width = static_cast<std::uint32_t>(copy.size());
-    copy.height = 1;
+  const std::size_t slash = path.find_last_of('/');
+  const std::string dir =
+      slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+  const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+  if (base.empty() || base == "." || base == "..")
+    throw std::runtime_error("cannot write '" + path + "': no file name");
+  // A fresh temporary file beside the target (mkstemp: O_EXCL, a random name, so a file or
+  // symlink planted there is never opened), written, flushed to disk, then renamed over the
+  // target and the directory flushed: a reader sees the old file or the whole new one.
+  std::string name = dir + "/." + base + ".XXXXXX";
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) {
+    throw std::runtime_error("cannot write '" + path + "': cannot create a file in '" + dir +
+                             "': " + std::strerror(errno));
   }
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  pcl::PCDWriter writer;
-  int rc = -1;
-  try {
-    rc = writer.writeBinary(tmp, copy);
-  } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write '" + path + "': " + e.what());
+  auto failWith = [&](const std::string& what) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(name.c_str());
+    throw std::runtime_error("cannot write '" + path + "': " + what + ": " + std::strerror(err));
+  };
+  const bool organised = cloud.width * cloud.height == cloud.size();
+  const Eigen::Vector3d t = T_frame_sensor.translation();
+  const Eigen::Quaterniond q = Eigen::Quaterniond(T_frame_sensor.linear()).normalized();
+  std::ostringstream header;
+  header.imbue(std::locale::classic());
+  header.precision(17);
+  header << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n"
+         << "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH "
+         << (organised ? cloud.width : cloud.size()) << "\nHEIGHT "
+         << (organised ? cloud.height : 1u) << "\nVIEWPOINT " << t.x() << ' ' << t.y() << ' '
+         << t.z() << ' ' << q.w() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << "\nPOINTS "
+         << cloud.size() << "\nDATA binary\n";
+  const std::string h = header.str();
+  std::vector<float> xyz;
+  xyz.reserve(3 * cloud.size());
+  for (const auto& p : cloud) xyz.insert(xyz.end(), {p.x, p.y, p.z});
+  if (!writeAll(fd, h.data(), h.size()) ||
+      !writeAll(fd, reinterpret_cast<const char*>(xyz.data()), xyz.size() * sizeof(float)))
+    failWith("write failed");
+  if (::fsync(fd) != 0) failWith("fsync failed");
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  if (::fchmod(fd, 0666 & ~mask) != 0) failWith("chmod failed");
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(name.c_str());
+    throw std::runtime_error("cannot write '" + path + "': close failed: " + std::strerror(err));
   }
-  if (rc < 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write '" + path + "'");
+  if (std::rename(name.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(name.c_str());
+    throw std::runtime_error("cannot write '" + path + "': rename failed: " + std::strerror(err));
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write '" + path + "': rename failed");
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+  if (dir_fd >= 0) {
+    ::fsync(dir_fd);  // the rename itself on disk; best effort (some filesystems refuse)
+    ::close(dir_fd);
   }
 }
 

@@ -1,7 +1,9 @@
 // Cloud files: round trip, atomic save, clear errors for bad files.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include "novelty_detection/io/cloud_io.h"
@@ -101,6 +103,40 @@ TEST(CloudIo, FailedSaveLeavesPreviousFileIntact) {
   saveCloudAtomic(path, c);
   EXPECT_THROW(saveCloudAtomic("/nonexistent/dir/x.pcd", c), std::runtime_error);
   EXPECT_EQ(loadCloud(path).size(), 1u);
+  try {
+    saveCloudAtomic("/nonexistent/dir/x.pcd", c);
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("No such file or directory"), std::string::npos)
+        << e.what();
+  }
+}
+
+// The temporary file is a fresh one: a symlink planted at the name a save would once have
+// used (PATH.tmp.<pid>) is not followed, and no temporary file is left behind.
+TEST(CloudIo, SaveFollowsNoPlantedLinkAndLeavesNoTemporaryFile) {
+  const std::string dir = tmpPath("save_dir");
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string victim = dir + "/victim.txt";
+  std::ofstream(victim) << "untouched";
+  const std::string path = dir + "/map.pcd";
+  std::filesystem::create_symlink(victim, path + ".tmp." + std::to_string(::getpid()));
+  Cloud c;
+  c.push_back(PointT(1.f, 2.f, 3.f));
+  c.push_back(PointT(4.f, 5.f, 6.f));
+  saveCloudAtomic(path, c);
+  std::ifstream in(victim);
+  std::string text;
+  in >> text;
+  EXPECT_EQ(text, "untouched");
+  EXPECT_EQ(loadCloud(path).size(), 2u);
+  std::size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    (void)e;
+    ++files;
+  }
+  EXPECT_EQ(files, 3u);  // victim, the planted link, map.pcd
+  std::filesystem::remove_all(dir);
 }
 
 TEST(CloudIo, FuzzFindingsStayFixed) {

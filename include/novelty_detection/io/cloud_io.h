@@ -22,9 +22,11 @@ struct CloudFile {
 CloudFile loadCloudFile(const std::string& path);
 Cloud loadCloud(const std::string& path);
 
-/// Writes a binary PCD atomically: to a temporary file beside `path`, then rename(), so a
-/// failed save leaves a previous file intact. The sensor pose goes to VIEWPOINT.
-/// Throws std::runtime_error on failure.
+/// Writes a binary PCD (x, y, z) atomically and durably: to a new temporary file beside
+/// `path` (mkstemp: a random name opened exclusively, so nothing planted there is followed),
+/// flushed to disk, renamed over `path`, and the directory flushed; a failed save leaves a
+/// previous file intact and no temporary file behind. The sensor pose goes to VIEWPOINT.
+/// Throws std::runtime_error naming the path, the step and the system's reason on failure.
 void saveCloudAtomic(const std::string& path, const Cloud& cloud,
                      const Eigen::Isometry3d& T_frame_sensor = Eigen::Isometry3d::Identity());
 
