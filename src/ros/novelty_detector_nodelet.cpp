@@ -160,10 +160,16 @@ void NoveltyDetectorNodelet::onInit() {
       });
   input_sub_ = pnh.subscribe("input", 2, &NoveltyDetectorNodelet::onInput, this);
 
-  publishStatus(unknown_params_.empty()
-                    ? std::string("ready")
-                    : "ready; unknown parameters ignored: " + joinNames(unknown_params_) +
-                          " (~strict_parameters refuses them)");
+  {
+    // The worker may already have failed on ~reference_file: its error follows "ready".
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    publishStatus(unknown_params_.empty()
+                      ? std::string("ready")
+                      : "ready; unknown parameters ignored: " + joinNames(unknown_params_) +
+                            " (~strict_parameters refuses them)");
+    init_done_ = true;
+    if (!reference_error_.empty()) publishStatus(reference_error_);
+  }
   NODELET_INFO("novelty detector ready: fixed frame '%s', input %s",
                node_params_.fixed_frame.c_str(), input_sub_.getTopic().c_str());
 }
@@ -255,7 +261,11 @@ void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
     NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
   } catch (const std::exception& e) {
     NODELET_ERROR("cannot use reference file: %s", e.what());
-    publishStatus("error: cannot use ~reference_file '" + path + "': " + e.what());
+    {
+      std::lock_guard<std::mutex> lock(status_mutex_);
+      reference_error_ = "error: cannot use ~reference_file '" + path + "': " + e.what();
+      if (init_done_) publishStatus(reference_error_);  // else onInit publishes it after "ready"
+    }
     std::lock_guard<std::mutex> lock(stats_mutex_);
     last_error_ = e.what();
   }

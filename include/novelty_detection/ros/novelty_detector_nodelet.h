@@ -103,6 +103,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   std::mutex params_mutex_;  // guards params_ after onInit
 
   // Depth-1 hand-over to the worker.
+  std::mutex status_mutex_;      // orders "ready" and a reference file error on ~status
+  bool init_done_ = false;       // "ready" published
+  std::string reference_error_;  // ~reference_file could not be used
   std::mutex queue_mutex_;
   std::condition_variable queue_cv_;
   sensor_msgs::PointCloud2::ConstPtr pending_;
