@@ -1,7 +1,10 @@
 // Services and diagnostics of NoveltyDetectorNodelet (the sweep path is in
 // novelty_detector_nodelet.cpp).
 #include <chrono>
+#include <cstdlib>
 #include <exception>
+#include <filesystem>
+#include <stdexcept>
 #include <string>
 
 #include "novelty_detection/io/cloud_io.h"
@@ -11,6 +14,38 @@
 #include "novelty_detection/ros/result_messages.h"
 
 namespace novelty_detection {
+namespace {
+
+/// Where ~save_reference may write `request`: inside `directory` (empty: $ROS_HOME, else
+/// ~/.ros, then novelty_detection; created when missing), after resolving '..' and the
+/// symlinks of the part that exists. Throws std::runtime_error naming both otherwise.
+std::string confinedSavePath(const std::string& directory, const std::string& request) {
+  namespace fs = std::filesystem;
+  fs::path dir(directory);
+  if (dir.empty()) {
+    const char* ros_home = std::getenv("ROS_HOME");
+    const char* home = std::getenv("HOME");
+    dir =
+        ros_home && *ros_home ? fs::path(ros_home) : fs::path(home && *home ? home : ".") / ".ros";
+    dir /= "novelty_detection";
+  }
+  if (request.empty()) throw std::runtime_error("no path given");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  const fs::path root = fs::canonical(dir, ec);
+  if (ec)
+    throw std::runtime_error("~save_directory '" + dir.string() + "' is unusable: " + ec.message());
+  const fs::path asked(request);
+  const fs::path target = fs::weakly_canonical(asked.is_absolute() ? asked : root / asked, ec);
+  if (ec) throw std::runtime_error("cannot resolve '" + request + "': " + ec.message());
+  const fs::path rel = target.lexically_relative(root);
+  if (rel.empty() || rel == "." || *rel.begin() == "..")
+    throw std::runtime_error("'" + request + "' is outside ~save_directory '" + root.string() +
+                             "'");
+  return target.string();
+}
+
+}  // namespace
 
 bool NoveltyDetectorNodelet::onCaptureReference(std_srvs::Trigger::Request&,
                                                 std_srvs::Trigger::Response& res) {
@@ -49,10 +84,11 @@ bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
     if (!reference_->hasMap()) throw std::runtime_error("there is no reference to save");
+    const std::string path = confinedSavePath(node_params_.save_directory, req.path);
     const Cloud map = reference_->map();
-    saveCloudAtomic(req.path, map, viewpointOf(map));
+    saveCloudAtomic(path, map, viewpointOf(map));
     res.success = true;
-    res.message = "saved " + std::to_string(map.size()) + " points to " + req.path;
+    res.message = "saved " + std::to_string(map.size()) + " points to " + path;
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

@@ -125,6 +125,34 @@ TEST_F(DetectorTest, ReferenceServicesAndDetect) {
 
   captureRoom();
 
+  // Saves stay inside ~save_directory (/tmp here): other places, '..' and a symlink that
+  // leads out are refused by name; nothing is written there.
+  for (const std::string outside :
+       {std::string("/etc/novelty_map.pcd"), std::string("../novelty_map.pcd"),
+        std::string("/tmp/../etc/novelty_map.pcd")}) {
+    novelty_detection::SaveReference bad;
+    bad.request.path = outside;
+    ASSERT_TRUE(ros::service::call("/detector/save_reference", bad));
+    EXPECT_FALSE(bad.response.success) << outside;
+    EXPECT_NE(bad.response.message.find("outside ~save_directory"), std::string::npos)
+        << bad.response.message;
+  }
+  const std::string link = tmpPath("link_out");
+  std::remove(link.c_str());
+  ASSERT_EQ(::symlink("/etc", link.c_str()), 0);
+  novelty_detection::SaveReference via_link;
+  via_link.request.path = link + "/novelty_map.pcd";
+  ASSERT_TRUE(ros::service::call("/detector/save_reference", via_link));
+  EXPECT_FALSE(via_link.response.success) << via_link.response.message;
+  std::remove(link.c_str());
+  // A relative path is taken inside the directory.
+  novelty_detection::SaveReference relative;
+  relative.request.path = "novelty_rostest_" + std::to_string(getpid()) + "_relative.pcd";
+  ASSERT_TRUE(ros::service::call("/detector/save_reference", relative));
+  EXPECT_TRUE(relative.response.success) << relative.response.message;
+  EXPECT_EQ(novelty_detection::loadCloud("/tmp/" + relative.request.path).size(), room_.size());
+  std::remove(("/tmp/" + relative.request.path).c_str());
+
   // set_reference: a missing file is refused clearly, a saved one is loaded.
   novelty_detection::SetReference set;
   set.request.path = tmpPath("does_not_exist.pcd");

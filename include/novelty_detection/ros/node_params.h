@@ -18,6 +18,7 @@ struct NodeParams {
   double sensor_range_m = 30.0;
   int tile_cache_size = 8;
   int input_queue_size = 5;
+  std::string save_directory;
 
   template <class F>
   void visit(F&& f) {
@@ -33,6 +34,10 @@ struct NodeParams {
     f("sensor_range_m", sensor_range_m, "sensor range for that crop [m]");
     f("tile_cache_size", tile_cache_size, "reference models (sets of tiles) kept in memory");
     f("input_queue_size", input_queue_size, "sweeps queued while waiting for their transform");
+    f("save_directory", save_directory,
+      "~save_reference writes only inside this directory (a relative path is taken inside it; "
+      "'..' and symlinks that lead out are refused); empty: $ROS_HOME/novelty_detection "
+      "(~/.ros/novelty_detection)");
   }
   /// Throws std::invalid_argument naming the parameter.
   void validate() const;
