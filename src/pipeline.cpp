@@ -176,16 +176,19 @@ void segmentCandidates(Detection& d) {
   const detail::NoveltyCandidates& cand = d.candidates;
   d.result.point_counts.emplace_back("novel_points", cand.novel.size());
   const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
+  // One index over the kept points serves the link radius cap and the object completion.
+  NearestNeighbourIndex kept_index;
+  kept_index.build(current, d.s.pre.kept);
   SweepContext sweep;
   sweep.kept = &d.s.pre.kept;
+  sweep.kept_index = &kept_index;
   sweep.origin_known = sensorOriginKnown(current.sensor_origin_);
   sweep.origin = current.sensor_origin_.head<3>();
   d.pieces = segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians,
                                 d.params.segmentation, &d.link_radius, sweep);
   // Only points on a surface the reference saw join: within tau of the map, and (when the
-  // reference has a viewpoint) where its view holds a return or free space, not where it
-  // was blind (newly visible points). Points farther away that are not novel were turned
-  // down by the visibility rule or the posterior, and stay so.
+  // reference has a viewpoint) not out of its view (newly visible points). Points farther away that
+  // are not novel were turned down by the visibility rule or the posterior, and stay so.
   const ReferenceModel& ref = d.ref;
   const double tau = d.tau, margin = d.params.visibility.margin_factor * d.tau;
   completeObjects(
@@ -198,7 +201,7 @@ void segmentCandidates(Detection& d) {
             ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell);
         return v != Visibility::kUnknown;
       },
-      &d.pieces);
+      &d.pieces, &kept_index);
   d.owner_of.assign(current.size(), -1);
   for (std::size_t k = 0; k < cand.novel.size(); ++k) d.owner_of[cand.novel[k]] = cand.owner[k];
   d.timer.lap("segmentation");

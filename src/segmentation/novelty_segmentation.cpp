@@ -62,6 +62,17 @@ void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
     out->insert(out->end(), idx.begin(), idx.end());
 }
 
+std::size_t NearestNeighbourIndex::size() const { return impl_->points->size(); }
+
+double NearestNeighbourIndex::kthDistance(const Eigen::Vector3f& p, int k) const {
+  if (k < 1 || size() < static_cast<std::size_t>(k)) return std::numeric_limits<double>::infinity();
+  PointT q(p.x(), p.y(), p.z());
+  std::vector<int> idx(k);
+  std::vector<float> d2(k);
+  if (impl_->tree.nearestKSearch(q, k, idx, d2) < k) return std::numeric_limits<double>::infinity();
+  return std::sqrt(static_cast<double>(d2[k - 1]));
+}
+
 Eigen::Vector3f NearestNeighbourIndex::point(int id) const {
   const PointT& q = (*impl_->points)[id];
   return Eigen::Vector3f(q.x, q.y, q.z);
@@ -154,19 +165,20 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
 
 double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points) {
   if (sweep.size() < 5 || points.empty()) return std::numeric_limits<double>::infinity();
-  Cloud::Ptr pts(new Cloud);
-  pts->reserve(sweep.size());
-  for (int i : sweep) pts->push_back(cloud[i]);
-  pcl::KdTreeFLANN<PointT> tree;
-  tree.setInputCloud(pts);
+  NearestNeighbourIndex index;
+  index.build(cloud, sweep);
+  return sweepSpacing(cloud, index, points);
+}
+
+double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points) {
   constexpr int k = 5;  // the point itself (it is in the sweep) and its 4 nearest
-  std::vector<int> nn;
-  std::vector<float> d2;
+  if (sweep.size() < k || points.empty()) return std::numeric_limits<double>::infinity();
   std::vector<double> spacing;
   const std::size_t stride = std::max<std::size_t>(1, points.size() / 2000);
-  for (std::size_t j = 0; j < points.size(); j += stride)
-    if (tree.nearestKSearch(cloud[points[j]], k, nn, d2) == k)
-      spacing.push_back(std::sqrt(d2[k - 1]));
+  for (std::size_t j = 0; j < points.size(); j += stride) {
+    const double d = sweep.kthDistance(cloud[points[j]].getVector3fMap(), k);
+    if (std::isfinite(d)) spacing.push_back(d);
+  }
   return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
 }
 
@@ -200,8 +212,9 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
                                         const SegmentationParams& params, double* link_radius_m,
                                         const SweepContext& sweep) {
   double link_radius = 0.0;
-  const double spacing = sweep.kept ? sweepSpacing(cloud, *sweep.kept, points)
-                                    : std::numeric_limits<double>::infinity();
+  const double spacing = !sweep.kept        ? std::numeric_limits<double>::infinity()
+                         : sweep.kept_index ? sweepSpacing(cloud, *sweep.kept_index, points)
+                                            : sweepSpacing(cloud, *sweep.kept, points);
   const std::vector<Indices> pieces =
       linkComponents(cloud, points, params.link_factor, 1, &link_radius, spacing);
   if (link_radius_m) *link_radius_m = link_radius;
@@ -273,20 +286,24 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
 
 void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius_m,
                      double min_share, const std::function<bool(int)>& may_join,
-                     std::vector<Indices>* segments) {
+                     std::vector<Indices>* segments, const NearestNeighbourIndex* kept_index) {
   if (!segments || segments->empty() || min_share >= 1.0 || !(link_radius_m > 0) || kept.size() < 2)
     return;
   std::vector<int> owner(cloud.size(), -1);  // segment of each novel point
   std::size_t novel = 0;
   for (std::size_t s = 0; s < segments->size(); ++s)
     for (int i : (*segments)[s]) owner[i] = static_cast<int>(s), ++novel;
-  Cloud::Ptr pts(new Cloud);
-  pts->reserve(kept.size());
-  for (int i : kept) pts->push_back(cloud[i]);
-  pcl::KdTreeFLANN<PointT> tree;
-  tree.setInputCloud(pts);
+  NearestNeighbourIndex own;
+  if (!kept_index || kept_index->size() != kept.size()) {
+    own.build(cloud, kept);
+    kept_index = &own;
+  }
+  if (kept_index->size() != kept.size()) return;  // a non-finite kept point: no positions
   std::vector<int> nn;
-  std::vector<float> d2;
+  auto neighbours = [&](int j) {
+    nn.clear();
+    kept_index->withinIds(cloud[kept[j]].getVector3fMap(), link_radius_m, &nn);
+  };
   std::vector<char> seen(kept.size(), 0);
   // An object can only qualify while it has at most novel / min_share points.
   const std::size_t cap = static_cast<std::size_t>(static_cast<double>(novel) / min_share) + 1;
@@ -300,7 +317,7 @@ void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius
     seen[k] = 1;
     bool too_large = false;
     for (std::size_t h = 0; h < piece.size() && !too_large; ++h) {
-      tree.radiusSearch((*pts)[piece[h]], link_radius_m, nn, d2);
+      neighbours(piece[h]);
       for (int j : nn) {
         too_large |= seen[j] == 2;
         if (!seen[j]) seen[j] = 1, piece.push_back(j);
@@ -322,7 +339,7 @@ void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius
       if (owner[kept[j]] >= 0) front.push_back(j), from.push_back(owner[kept[j]]), done[j] = 1;
     }
     for (std::size_t h = 0; h < front.size(); ++h) {
-      tree.radiusSearch((*pts)[front[h]], link_radius_m, nn, d2);
+      neighbours(front[h]);
       for (int j : nn) {
         if (!in_piece[j] || done[j]) continue;
         done[j] = 1;

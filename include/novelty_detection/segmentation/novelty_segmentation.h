@@ -43,6 +43,11 @@ class NearestNeighbourIndex {
   void withinIds(const Eigen::Vector3f& p, double radius_m, std::vector<int>* out) const;
   /// The indexed point with position `id` in the index.
   Eigen::Vector3f point(int id) const;
+  /// Number of indexed points.
+  std::size_t size() const;
+  /// Distance from p to its k-th nearest indexed point (p itself counts when indexed);
+  /// +inf with fewer than k points.
+  double kthDistance(const Eigen::Vector3f& p, int k) const;
 
  private:
   struct Impl;
@@ -69,11 +74,15 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
 /// farther apart than the sweep samples there; their mutual spacing would link (and merge)
 /// across metres, so the link radius takes the smaller of the two.
 double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points);
+/// As above with an index over cloud[sweep] already built.
+double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points);
 
 /// The sweep the novel points were found in: its kept points (cloud indices) and, when known,
 /// its sensor origin (in the cloud's frame).
 struct SweepContext {
   const Indices* kept = nullptr;
+  /// An index over cloud[*kept] (same order) shared with completeObjects; built here when null.
+  const NearestNeighbourIndex* kept_index = nullptr;
   bool origin_known = false;
   Eigen::Vector3f origin = Eigen::Vector3f::Zero();
 };
@@ -113,9 +122,12 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
 /// stood has surfaces the map had (within tau of it); they are part of the new object all the
 /// same. An object that is mostly unchanged (a tin with a new mug on it) stays as it is.
 /// min_share >= 1 leaves the segments as they are.
+/// `kept_index`: an index over cloud[kept] in that order when the caller has one (built here
+/// otherwise).
 void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius_m,
                      double min_share, const std::function<bool(int)>& may_join,
-                     std::vector<Indices>* segments);
+                     std::vector<Indices>* segments,
+                     const NearestNeighbourIndex* kept_index = nullptr);
 
 /// Gives each repeated point (pre-processing set it aside, see PreprocessResult) the label of
 /// its first occurrence, and adds it to that segment's indices (kept ascending).
