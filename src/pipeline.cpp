@@ -16,6 +16,7 @@
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
 #include "novelty_detection/preprocess/input_check.h"
+#include "novelty_detection/preprocess/range_noise.h"
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
@@ -129,8 +130,28 @@ void measureDistancesToMap(Detection& d) {
   const std::size_t stride = std::max<std::size_t>(1, kept.size() / 2000);
   for (std::size_t i = 0; i < kept.size(); i += stride)
     sample.push_back(d.ref.points.distance(point3f(current[kept[i]])));
-  d.tau = noveltyDistanceThreshold(sample, d.params.segmentation.novelty_distance_factor,
-                                   d.params.segmentation.min_novelty_distance_m);
+  // The floor: the sensor's own noise at the sweep's median range, so that tau does not
+  // collapse on a pair sampled at the same pixels (near-zero distances everywhere).
+  const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
+  const RangeNoise noise =
+      estimateRangeNoise(d.s.tree, sensorOriginKnown(current.sensor_origin_) ? &origin : nullptr);
+  std::vector<double> range;
+  if (sensorOriginKnown(current.sensor_origin_))
+    for (std::size_t i = 0; i < kept.size(); i += stride)
+      range.push_back((point3f(current[kept[i]]) - origin).norm());
+  double median_range = 0.0;
+  if (!range.empty()) {
+    std::nth_element(range.begin(), range.begin() + range.size() / 2, range.end());
+    median_range = range[range.size() / 2];
+  }
+  const double noise_sigma = noise.sigmaAt(median_range);
+  const SegmentationParams& sp = d.params.segmentation;
+  d.tau = noveltyDistanceThreshold(
+      sample, sp.novelty_distance_factor,
+      std::max(sp.min_novelty_distance_m, sp.noise_floor_factor * noise_sigma));
+  d.result.tau_m = d.tau;
+  d.result.noise_sigma_m = noise_sigma;
+  d.result.noise_model = noise.estimated ? noise.modelName() : std::string();
   std::vector<Eigen::Index> far_idx;
   for (std::size_t c = 0; c < d.s.fine.points.size(); ++c)
     if (d.ref.points.distance(d.s.fine.points[c]) > d.tau) far_idx.push_back(c);

@@ -266,6 +266,7 @@ struct SegmentationParams {
   double posterior_threshold = 0.5;
   double novelty_distance_factor = 6.0;
   double min_novelty_distance_m = 0.0;
+  double noise_floor_factor = 3.0;
   double link_factor = 2.5;
   double merge_gap_factor = 4.0;
   double merge_floor_gap_factor = 2.0;
@@ -284,6 +285,11 @@ struct SegmentationParams {
        "of the current-to-reference nearest-neighbour distances",
        0.0, 1000.0});
     f("min_novelty_distance_m", min_novelty_distance_m, {"lower bound of tau [m]", 0.0, 100.0});
+    f("noise_floor_factor", noise_floor_factor,
+      {"tau is at least this many times the sensor's noise sigma at the sweep's median range, "
+       "sigma(r) = c r^p (p = 0, 1 or 2) fitted to the thickness of the sweep's own planar "
+       "patches (preprocess/range_noise.h); 0 disables",
+       0.0, 100.0});
     f("link_factor", link_factor,
       {"novel points closer than link_factor * their median 4-NN spacing join one segment", 0.1,
        100.0});

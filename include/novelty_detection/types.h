@@ -144,6 +144,12 @@ struct Result {
   /// was removed as ground.
   bool floor_found = false;
   Eigen::Vector4d floor = Eigen::Vector4d::Zero();
+  /// The novelty distance tau used [m], and the noise model that floors it: sigma of the
+  /// sweep's surfaces at the median range of its points [m], the model's name
+  /// ("constant", "linear in range", "quadratic in range"; empty when too few patches).
+  double tau_m = 0.0;
+  double noise_sigma_m = 0.0;
+  std::string noise_model;
   /// What the detector set aside and the user should know (e.g. points with absurd
   /// coordinates treated as missing), one sentence each.
   std::vector<std::string> warnings;

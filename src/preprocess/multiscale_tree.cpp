@@ -197,18 +197,23 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
   // minority of nodes on edges and corners.
   std::vector<double> l0;
   for (const Node& node : nodes_) {
-    const int size = node.size();
-    // Plate-like nodes only: where the in-plane spread is not far above the noise, splits
-    // start cutting through the noise itself and the small l0 left would bias the vote.
-    if (size < 16 || size > 256 || node.eigenvalues(1) < 10.f * node.eigenvalues(0)) continue;
-    const double nu = size - 3.0;
-    const double median_factor = std::pow(1.0 - 2.0 / (9.0 * nu), 3.0);
-    l0.push_back(node.eigenvalues(0) * size / (nu * median_factor));
+    const double vote = noiseVote(node);
+    if (vote >= 0.0) l0.push_back(vote);
   }
   if (!l0.empty()) {
     std::nth_element(l0.begin(), l0.begin() + l0.size() / 2, l0.end());
     noise_variance_m2_ = l0[l0.size() / 2];
   }
+}
+
+double MultiScaleTree::noiseVote(const Node& node) {
+  const int size = node.size();
+  // Plate-like nodes only: where the in-plane spread is not far above the noise, splits
+  // start cutting through the noise itself and the small l0 left would bias the vote.
+  if (size < 16 || size > 256 || node.eigenvalues(1) < 10.f * node.eigenvalues(0)) return -1.0;
+  const double nu = size - 3.0;
+  const double median_factor = std::pow(1.0 - 2.0 / (9.0 * nu), 3.0);
+  return node.eigenvalues(0) * size / (nu * median_factor);
 }
 
 MultiScaleTree::Cut MultiScaleTree::cut(int n_max, double sigma_max) const {

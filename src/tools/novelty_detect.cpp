@@ -272,6 +272,10 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"up_source", r.up_source},
           {"floor", r.floor_found ? json::array({r.floor[0], r.floor[1], r.floor[2], r.floor[3]})
                                   : json(nullptr)},
+          {"tau_m", r.tau_m},
+          {"noise",
+           {{"sigma_m", r.noise_sigma_m},
+            {"model", r.noise_model.empty() ? json(nullptr) : json(r.noise_model)}}},
           {"warnings", r.warnings}};
 }
 

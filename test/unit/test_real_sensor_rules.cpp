@@ -373,6 +373,50 @@ TEST(NoveltyDistance, HoldsWhenMuchOfTheSceneChanged) {
   EXPECT_DOUBLE_EQ(noveltyDistanceThreshold({}, 6.0, 0.03), 0.03);
 }
 
+// A pair sampled at the same pixels (the current sweep is the reference, point for point):
+// the distances to the map are all zero, so the data alone would give tau = 0 and any
+// re-sampled return would be "novel". The sensor's noise, measured on the sweep's own planes,
+// floors it at noise_floor_factor sigma. The simulated range noise is 1 cm along the beam;
+// the thickness normal to the walls and floor, seen at an angle, is less.
+TEST(NoveltyDistance, FlooredByTheSensorNoiseOnAPixelIdenticalPair) {
+  synthetic::SceneOptions opt;
+  opt.range_sigma_m = 0.01;
+  opt.seed = 11;
+  Cloud cloud = synthetic::makeCorridor(opt).cloud;
+  setSensorOrigin(cloud, opt.sensor.cast<float>());
+  Cloud current = cloud;
+  // A few returns drawn again (as a depth camera's edge pixels flicker): 2 % of the points
+  // move by up to 4 sigma along their beam.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const Eigen::Vector3f o = opt.sensor.cast<float>();
+  for (PointT& p : current.points) {
+    if (u(rng) > 0.02) continue;
+    const Eigen::Vector3f ray = (p.getVector3fMap() - o).normalized();
+    p.getVector3fMap() += static_cast<float>(0.04 * (2.0 * u(rng) - 1.0)) * ray;
+  }
+  auto run = [&](double factor) {
+    Params p;
+    p.superquadric.enabled = false;
+    p.segmentation.noise_floor_factor = factor;
+    Pipeline pipeline(p);
+    pipeline.setReference(cloud);
+    return pipeline.detect(current);
+  };
+  const Result floored = run(3.0);
+  EXPECT_EQ(floored.noise_model, "constant");
+  EXPECT_GT(floored.noise_sigma_m, 0.005);
+  EXPECT_LT(floored.noise_sigma_m, 0.0105);
+  EXPECT_NEAR(floored.tau_m, 3.0 * floored.noise_sigma_m, 1e-9);
+  EXPECT_TRUE(floored.segments.empty());
+  // Without the floor the flickering returns make a false segment.
+  const Result bare = run(0.0);
+  EXPECT_LT(bare.tau_m, 0.002);
+  EXPECT_FALSE(bare.segments.empty());
+  std::printf("tau %.4f floored, %.4f bare; segments %zu floored, %zu bare\n", floored.tau_m,
+              bare.tau_m, floored.segments.size(), bare.segments.size());
+}
+
 // A stated zero origin is known; an unstated one is not.
 TEST(SensorOrigin, StatedZeroIsKnown) {
   Cloud c;

@@ -61,6 +61,10 @@ class MultiScaleTree {
   /// their smallest eigenvalue, corrected for the plane fit's degrees of freedom. 0 for an
   /// empty or tiny tree.
   double noiseVariance() const { return noise_variance_m2_; }
+  /// One node's vote in that median: its smallest eigenvalue divided by the median of the
+  /// plane fit's chi-square (n - 3 degrees of freedom) [m^2]; -1 for a node that does not
+  /// vote (fewer than 16 or more than 256 points, or not plate-like: l1 < 10 l0).
+  static double noiseVote(const Node& node);
 
   const std::vector<Node>& nodes() const { return nodes_; }
   /// Input-cloud indices in tree order: node n owns order()[n.begin, n.end).
