@@ -128,17 +128,18 @@ void measureDistancesToMap(Detection& d) {
   const Indices& kept = d.s.pre.kept;
   std::vector<double> sample;
   const std::size_t stride = std::max<std::size_t>(1, kept.size() / 2000);
-  for (std::size_t i = 0; i < kept.size(); i += stride)
-    sample.push_back(d.ref.points.distance(point3f(current[kept[i]])));
-  // The floor: the sensor's own noise at the sweep's median range, so that tau does not
-  // collapse on a pair sampled at the same pixels (near-zero distances everywhere).
+  // The same sample gives the sweep's median range (with a known origin), where tau's floor,
+  // the sensor's own noise, is taken: tau then cannot collapse on a pair sampled at the same
+  // pixels (near-zero distances everywhere).
+  const bool origin_known = sensorOriginKnown(current.sensor_origin_);
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
-  const RangeNoise noise =
-      estimateRangeNoise(d.s.tree, sensorOriginKnown(current.sensor_origin_) ? &origin : nullptr);
   std::vector<double> range;
-  if (sensorOriginKnown(current.sensor_origin_))
-    for (std::size_t i = 0; i < kept.size(); i += stride)
-      range.push_back((point3f(current[kept[i]]) - origin).norm());
+  for (std::size_t i = 0; i < kept.size(); i += stride) {
+    const Eigen::Vector3f p = point3f(current[kept[i]]);
+    sample.push_back(d.ref.points.distance(p));
+    if (origin_known) range.push_back((p - origin).norm());
+  }
+  const RangeNoise noise = estimateRangeNoise(d.s.tree, origin_known ? &origin : nullptr);
   double median_range = 0.0;
   if (!range.empty()) {
     std::nth_element(range.begin(), range.begin() + range.size() / 2, range.end());

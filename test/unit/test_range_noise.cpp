@@ -45,6 +45,15 @@ nd::RangeNoise fit(const nd::Cloud& cloud, const Eigen::Vector3f* origin) {
   return nd::estimateRangeNoise(tree, origin);
 }
 
+/// The model found: its exponent and name, and sigma at `range_m` within `tol_m`.
+void expectModel(const nd::RangeNoise& n, double exponent, const char* name, double range_m,
+                 double sigma_m, double tol_m) {
+  ASSERT_TRUE(n.estimated);
+  EXPECT_EQ(n.exponent, exponent);
+  EXPECT_EQ(n.modelName(), name);
+  EXPECT_NEAR(n.sigmaAt(range_m), sigma_m, tol_m);
+}
+
 }  // namespace
 
 TEST(RangeNoise, ConstantNoiseIsConstant) {
@@ -52,10 +61,7 @@ TEST(RangeNoise, ConstantNoiseIsConstant) {
   const nd::RangeNoise n = fit(patches(
                                    o, [](double) { return 0.01; }, 1),
                                &o);
-  ASSERT_TRUE(n.estimated);
-  EXPECT_EQ(n.exponent, 0.0);
-  EXPECT_NEAR(n.sigmaAt(3.0), 0.01, 0.0015);
-  EXPECT_EQ(n.modelName(), "constant");
+  expectModel(n, 0.0, "constant", 3.0, 0.01, 0.0015);
 }
 
 TEST(RangeNoise, LinearNoiseIsLinear) {
@@ -63,11 +69,8 @@ TEST(RangeNoise, LinearNoiseIsLinear) {
   const nd::RangeNoise n = fit(patches(
                                    o, [](double r) { return 0.002 * r; }, 2),
                                &o);
-  ASSERT_TRUE(n.estimated);
-  EXPECT_EQ(n.exponent, 1.0);
-  EXPECT_NEAR(n.sigmaAt(1.0), 0.002, 0.0003);
+  expectModel(n, 1.0, "linear in range", 1.0, 0.002, 0.0003);
   EXPECT_NEAR(n.sigmaAt(5.0), 0.010, 0.0015);
-  EXPECT_EQ(n.modelName(), "linear in range");
 }
 
 TEST(RangeNoise, DepthCameraNoiseIsQuadratic) {
@@ -75,10 +78,7 @@ TEST(RangeNoise, DepthCameraNoiseIsQuadratic) {
   const nd::RangeNoise n = fit(patches(
                                    o, [](double r) { return 0.0015 * r * r; }, 3),
                                &o);
-  ASSERT_TRUE(n.estimated);
-  EXPECT_EQ(n.exponent, 2.0);
-  EXPECT_NEAR(n.sigmaAt(2.0), 0.006, 0.0009);
-  EXPECT_EQ(n.modelName(), "quadratic in range");
+  expectModel(n, 2.0, "quadratic in range", 2.0, 0.006, 0.0009);
 }
 
 TEST(RangeNoise, WithoutAnOriginOnlyTheConstantIsFitted) {
