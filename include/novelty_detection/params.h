@@ -66,7 +66,10 @@ struct PreprocessParams {
     f("sensor_frame", sensor_frame,
       {"each cloud given without a stated origin is in its own sensor's frame: the sensor is "
        "its origin (a sensor-frame file or bag; organised clouds are taken so anyway)"});
-    f("max_points", max_points, {"sweeps with more points are refused", 1, 100000000});
+    f("max_points", max_points,
+      {"sweeps and reference files with more points are refused (a file from its header, "
+       "before its body is read)",
+       1, 100000000});
     f("min_range_m", min_range_m,
       {"returns closer than this to their sensor are dropped from both clouds (0: none) [m]", 0.0,
        100.0});

@@ -18,6 +18,7 @@
 #include <cstring>
 #include <fstream>
 #include <locale>
+#include <new>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -89,7 +90,8 @@ Cloud xyzFromBlob(const std::string& path, const pcl::PCLPointCloud2& blob) {
 
 // The PLY counterpart: PCL allocates element storage from the header's counts before
 // reading, so counts must be sane numbers that the file can actually hold.
-void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
+void validatePlyHeader(const std::string& path, std::uintmax_t file_size,
+                       const LoadLimits& limits) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open");
   std::string line;
@@ -134,7 +136,13 @@ void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
       if (n < 0 || used != count.size() || static_cast<std::uintmax_t>(n) > file_size) {
         fail(path, "malformed ply header (element count '" + count.substr(0, 32) + "')");
       }
-      if (name == "vertex") vertex = true;
+      if (name == "vertex") {
+        vertex = true;
+        if (static_cast<std::uint64_t>(n) > limits.max_points) {
+          fail(path, std::to_string(n) + " points, more than " + limits.parameter + " = " +
+                         std::to_string(limits.max_points));
+        }
+      }
       current_count = static_cast<std::uintmax_t>(n);
       current_is_list = false;
       properties.clear();
@@ -165,7 +173,7 @@ void validatePlyHeader(const std::string& path, std::uintmax_t file_size) {
 
 }  // namespace
 
-CloudFile loadCloudFile(const std::string& path) {
+CloudFile loadCloudFile(const std::string& path, const LoadLimits& limits) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) fail(path, "no such file");
   if (!S_ISREG(st.st_mode)) fail(path, "not a regular file");
@@ -180,13 +188,13 @@ CloudFile loadCloudFile(const std::string& path) {
   try {
     if (ext == "pcd") {
       // Our own reader: PCL's trusts the header's description of the body (see pcd_reader.h).
-      CloudFile out = detail::readPcdFile(path, static_cast<std::uintmax_t>(st.st_size));
+      CloudFile out = detail::readPcdFile(path, static_cast<std::uintmax_t>(st.st_size), limits);
       out.cloud.sensor_origin_.head<3>() = out.T_frame_sensor.translation().cast<float>();
       out.cloud.sensor_origin_[3] = 0.f;
       out.cloud.sensor_orientation_ = Eigen::Quaternionf(out.T_frame_sensor.linear().cast<float>());
       return out;
     } else if (ext == "ply") {
-      validatePlyHeader(path, static_cast<std::uintmax_t>(st.st_size));
+      validatePlyHeader(path, static_cast<std::uintmax_t>(st.st_size), limits);
       pcl::PLYReader reader;
       int version = 0;
       rc = reader.read(path, blob, origin, orientation, version);
@@ -195,6 +203,10 @@ CloudFile loadCloudFile(const std::string& path) {
     }
   } catch (const std::runtime_error&) {
     throw;
+  } catch (const std::bad_alloc&) {
+    fail(path, "out of memory while loading it: the cloud it declares does not fit in this "
+               "machine's memory (lower " + limits.parameter + " to refuse such files from "
+               "their header)");
   } catch (const std::exception& e) {
     fail(path, e.what());
   }
@@ -214,7 +226,9 @@ CloudFile loadCloudFile(const std::string& path) {
   return out;
 }
 
-Cloud loadCloud(const std::string& path) { return loadCloudFile(path).cloud; }
+Cloud loadCloud(const std::string& path, const LoadLimits& limits) {
+  return loadCloudFile(path, limits).cloud;
+}
 
 namespace {
 

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <set>
@@ -230,20 +231,38 @@ void readAscii(const std::string& path, std::istream& in, const PcdHeader& h,
   }
 }
 
+/// Receives decoded body bytes in order: (bytes, count, offset of the first in the body).
+using ByteSink = std::function<void(const unsigned char*, std::size_t, std::uint64_t)>;
+
 /// LZF (liblzf's format, used by PCL's binary_compressed): literal runs (ctrl < 32: ctrl + 1
-/// bytes follow) and back references (length ctrl >> 5, +7 extension byte, offset 13 bits).
+/// bytes follow) and back references (length ctrl >> 5, +7 extension byte, offset 13 bits,
+/// so at most 8192 bytes back). Decodes as a stream: only the last 8 KiB of output and one
+/// chunk are held, the rest goes to `sink`, so memory does not grow with the expanded size.
 /// Every read and write is bounds-checked; returns false on any inconsistency.
-bool lzfDecompress(const unsigned char* in, std::size_t in_size, unsigned char* out,
-                   std::size_t out_size) {
-  std::size_t ip = 0, op = 0;
+bool lzfDecompress(const unsigned char* in, std::size_t in_size, std::uint64_t out_size,
+                   const ByteSink& sink) {
+  constexpr std::size_t kHistory = 8192, kChunk = 1u << 20, kMaxRun = 7 + 255 + 2;
+  std::vector<unsigned char> buf(kHistory + kChunk + kMaxRun);
+  std::uint64_t base = 0, emitted = 0;  // body offsets of buf[0] and of the next byte to emit
+  std::size_t pos = 0;                  // bytes in buf
+  auto flush = [&] {
+    sink(buf.data() + (emitted - base), static_cast<std::size_t>(base + pos - emitted), emitted);
+    emitted = base + pos;
+    const std::size_t keep = std::min(pos, kHistory);
+    std::memmove(buf.data(), buf.data() + pos - keep, keep);
+    base += pos - keep;
+    pos = keep;
+  };
+  std::size_t ip = 0;
   while (ip < in_size) {
     const unsigned ctrl = in[ip++];
+    if (pos + kMaxRun > buf.size()) flush();
     if (ctrl < 32) {
       const std::size_t len = ctrl + 1;
-      if (ip + len > in_size || op + len > out_size) return false;
-      std::memcpy(out + op, in + ip, len);
+      if (ip + len > in_size || base + pos + len > out_size) return false;
+      std::memcpy(buf.data() + pos, in + ip, len);
       ip += len;
-      op += len;
+      pos += len;
     } else {
       std::size_t len = ctrl >> 5;
       if (len == 7) {
@@ -253,11 +272,12 @@ bool lzfDecompress(const unsigned char* in, std::size_t in_size, unsigned char* 
       if (ip >= in_size) return false;
       const std::size_t back = ((ctrl & 0x1f) << 8) + in[ip++] + 1;
       len += 2;
-      if (back > op || op + len > out_size) return false;
-      for (std::size_t k = 0; k < len; ++k, ++op) out[op] = out[op - back];  // may overlap
+      if (back > pos || base + pos + len > out_size) return false;
+      for (std::size_t k = 0; k < len; ++k, ++pos) buf[pos] = buf[pos - back];  // may overlap
     }
   }
-  return op == out_size;
+  flush();
+  return base + pos == out_size;
 }
 
 std::vector<unsigned char> readBytes(const std::string& path, std::istream& in, std::size_t n,
@@ -269,13 +289,48 @@ std::vector<unsigned char> readBytes(const std::string& path, std::istream& in, 
   return buf;
 }
 
+/// Collects one coordinate field (its first element per point) from a stream of body bytes
+/// laid out field after field (binary_compressed) or point after point (binary).
+struct CoordinateSink {
+  std::uint64_t start = 0;   ///< body offset of point 0's value
+  std::uint64_t stride = 0;  ///< bytes from one point's value to the next
+  std::size_t size = 4;      ///< bytes of the value
+  std::vector<unsigned char> bytes;  ///< points x size
+
+  void take(const unsigned char* data, std::size_t n, std::uint64_t offset) {
+    const std::uint64_t points = bytes.size() / size;
+    if (points == 0 || offset + n <= start) return;
+    const std::uint64_t lo = std::max<std::uint64_t>(offset, start), hi = offset + n;
+    for (std::uint64_t i = (lo - start) / stride; i < points; ++i) {
+      const std::uint64_t v0 = start + i * stride;  // the value's first byte
+      if (v0 >= hi) break;
+      const std::uint64_t a = std::max(v0, lo), b = std::min<std::uint64_t>(v0 + size, hi);
+      if (a < b) std::memcpy(&bytes[i * size + (a - v0)], data + (a - offset), b - a);
+    }
+  }
+  float at(std::uint64_t i) const { return readFloat(&bytes[i * size], static_cast<int>(size)); }
+};
+
 }  // namespace
 
-CloudFile readPcdFile(const std::string& path, std::uintmax_t file_size) {
+CloudFile readPcdFile(const std::string& path, std::uintmax_t file_size,
+                      const LoadLimits& limits) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open");
   const PcdHeader h = parseHeader(path, in);
   const std::vector<const PcdField*> xyz = coordinateFields(path, h);
+  // The limits, from the header alone, before anything the size of the body is allocated.
+  if (h.points > limits.max_points) {
+    fail(path, std::to_string(h.points) + " points, more than " + limits.parameter + " = " +
+                   std::to_string(limits.max_points));
+  }
+  if (static_cast<unsigned __int128>(h.points) * h.point_step >
+      static_cast<unsigned __int128>(limits.max_points) * LoadLimits::kBytesPerPoint) {
+    fail(path, std::to_string(h.points) + " points of " + std::to_string(h.point_step) +
+                   " bytes, more data than " + std::to_string(LoadLimits::kBytesPerPoint) +
+                   " bytes for each of " + limits.parameter + " = " +
+                   std::to_string(limits.max_points) + " points");
+  }
   const std::uintmax_t body = file_size - std::min(file_size, h.header_bytes);
 
   CloudFile out;
@@ -294,14 +349,38 @@ CloudFile readPcdFile(const std::string& path, std::uintmax_t file_size) {
     if (need128 > body && h.data == "binary") {
       fail(path, "truncated binary pcd file (data shorter than its header declares)");
     }
-    if (need128 > std::numeric_limits<std::uint32_t>::max() * 141ull) {
-      fail(path, "corrupt compressed pcd file (declares more data than it can hold)");
+    const auto need = static_cast<std::uint64_t>(need128);  // <= 1e8 points x 256 bytes
+    // Only x, y and z are kept, each gathered straight from the body as it is read.
+    CoordinateSink coords[3];
+    for (int c = 0; c < 3; ++c) {
+      const PcdField& f = *xyz[c];
+      coords[c].size = static_cast<std::size_t>(f.size);
+      coords[c].bytes.assign(static_cast<std::size_t>(h.points) * coords[c].size, 0);
+      if (h.data == "binary") {
+        coords[c].start = f.byte_offset;
+        coords[c].stride = h.point_step;
+      } else {  // compressed bodies store each field for all points in turn (x x x ... y y y)
+        std::uint64_t field_start = 0;
+        for (const PcdField& g : h.fields) {
+          if (&g == &f) break;
+          field_start += h.points * static_cast<std::uint64_t>(g.size) * g.count;
+        }
+        coords[c].start = field_start;
+        coords[c].stride = static_cast<std::uint64_t>(f.size) * f.count;
+      }
     }
-    const auto need = static_cast<std::uintmax_t>(need128);
-    std::vector<unsigned char> raw;
+    const ByteSink sink = [&](const unsigned char* data, std::size_t n, std::uint64_t offset) {
+      for (CoordinateSink& c : coords) c.take(data, n, offset);
+    };
     if (h.data == "binary") {
-      raw = readBytes(path, in, static_cast<std::size_t>(need),
-                      "truncated binary pcd file (data shorter than its header declares)");
+      std::vector<unsigned char> chunk(std::min<std::uint64_t>(need, 1u << 20));
+      for (std::uint64_t offset = 0; offset < need; offset += chunk.size()) {
+        const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk.size(), need - offset));
+        if (!in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(n))) {
+          fail(path, "truncated binary pcd file (data shorter than its header declares)");
+        }
+        sink(chunk.data(), n, offset);
+      }
     } else {
       if (body < 8) fail(path, "truncated compressed pcd file");
       std::uint32_t sizes[2];
@@ -317,27 +396,15 @@ CloudFile readPcdFile(const std::string& path, std::uintmax_t file_size) {
       if (uncompressed > 140ull * compressed + 64) fail(path, "corrupt compressed pcd file");
       const std::vector<unsigned char> packed =
           readBytes(path, in, compressed, "truncated compressed pcd file");
-      std::vector<unsigned char> planar(uncompressed);
-      if (uncompressed > 0 &&
-          !lzfDecompress(packed.data(), packed.size(), planar.data(), planar.size())) {
+      if (uncompressed > 0 && !lzfDecompress(packed.data(), packed.size(), uncompressed, sink)) {
         fail(path, "corrupt compressed pcd file (bad LZF data)");
-      }
-      // Compressed bodies store each field for all points in turn (x x x ... y y y ...).
-      raw.assign(planar.size(), 0);
-      std::size_t src = 0;
-      for (const PcdField& f : h.fields) {
-        const std::size_t bytes = static_cast<std::size_t>(f.size) * f.count;
-        for (std::uint64_t i = 0; i < h.points; ++i, src += bytes) {
-          std::memcpy(&raw[i * h.point_step + f.byte_offset], &planar[src], bytes);
-        }
       }
     }
     cloud.resize(h.points);
     for (std::uint64_t i = 0; i < h.points; ++i) {
-      const unsigned char* p = raw.data() + i * h.point_step;
-      cloud[i].x = readFloat(p + xyz[0]->byte_offset, xyz[0]->size);
-      cloud[i].y = readFloat(p + xyz[1]->byte_offset, xyz[1]->size);
-      cloud[i].z = readFloat(p + xyz[2]->byte_offset, xyz[2]->size);
+      cloud[i].x = coords[0].at(i);
+      cloud[i].y = coords[1].at(i);
+      cloud[i].z = coords[2].at(i);
     }
   }
   cloud.width = static_cast<std::uint32_t>(h.width);

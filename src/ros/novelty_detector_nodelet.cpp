@@ -1,3 +1,4 @@
+#include "novelty_detection/error_text.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/reconfigure.h"
 
@@ -101,9 +102,9 @@ void NoveltyDetectorNodelet::onInit() {
     reference_ = std::make_unique<TiledReference>(
         params_, node_params_.tile_size_m, static_cast<std::size_t>(node_params_.tile_cache_size));
   } catch (const std::exception& e) {
-    params_error_ = e.what();
-    NODELET_FATAL("novelty detector refuses to start: %s", e.what());
-    publishStatus(std::string("error: invalid parameters: ") + e.what());
+    params_error_ = errorText(e);
+    NODELET_FATAL("novelty detector refuses to start: %s", errorText(e).c_str());
+    publishStatus(std::string("error: invalid parameters: ") + errorText(e));
     return;
   }
 
@@ -194,7 +195,7 @@ void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& m
     }
     tf_filter_->add(msg);
   } catch (const std::exception& e) {
-    NODELET_ERROR_THROTTLE(kWarnPeriodS, "sweep refused: %s", e.what());
+    NODELET_ERROR_THROTTLE(kWarnPeriodS, "sweep refused: %s", errorText(e).c_str());
   }
 }
 
@@ -254,20 +255,26 @@ Cloud NoveltyDetectorNodelet::referenceFromFile(const CloudFile& file) const {
   return cloud;
 }
 
+LoadLimits NoveltyDetectorNodelet::referenceLimits() const {
+  LoadLimits limits;
+  limits.max_points = static_cast<std::uint64_t>(params_.preprocess.max_points);
+  return limits;
+}
+
 void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
   try {
-    const CloudFile file = loadCloudFile(path);
+    const CloudFile file = loadCloudFile(path, referenceLimits());
     reference_->setMap(referenceFromFile(file));
     NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
   } catch (const std::exception& e) {
-    NODELET_ERROR("cannot use reference file: %s", e.what());
+    NODELET_ERROR("cannot use reference file: %s", errorText(e).c_str());
     {
       std::lock_guard<std::mutex> lock(status_mutex_);
-      reference_error_ = "error: cannot use ~reference_file '" + path + "': " + e.what();
+      reference_error_ = "error: cannot use ~reference_file '" + path + "': " + errorText(e);
       if (init_done_) publishStatus(reference_error_);  // else onInit publishes it after "ready"
     }
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    last_error_ = e.what();
+    last_error_ = errorText(e);
   }
 }
 
@@ -311,7 +318,7 @@ void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& clou
     setSensorOrigin(cloud, T_fixed_sensor.translation().cast<float>());
     cloud.sensor_orientation_ = Eigen::Quaternionf(T_fixed_sensor.linear().cast<float>());
   } catch (const tf2::TransformException& e) {
-    NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor pose for the sweep: %s", e.what());
+    NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor pose for the sweep: %s", errorText(e).c_str());
   }
 }
 
@@ -340,7 +347,7 @@ Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& clo
       hi = hi.cwiseMin(origin + range);
     } catch (const tf2::TransformException& e) {
       NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor origin, cropping by extent only: %s",
-                            e.what());
+                            errorText(e).c_str());
     }
   }
   const auto pipeline = reference_->pipelineFor(lo, hi);
@@ -365,10 +372,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
                                             std::to_string(cloud.size()) + " points, all NaN/inf)");
     }
   } catch (const std::exception& e) {
-    warnThrottled("rejected", std::string("sweep rejected: ") + e.what());
+    warnThrottled("rejected", std::string("sweep rejected: ") + errorText(e));
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++rejected_;
-    last_error_ = e.what();
+    last_error_ = errorText(e);
     return;
   }
 
@@ -387,10 +394,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
     } catch (const std::exception& e) {
-      NODELET_ERROR("capturing the reference failed: %s", e.what());
+      NODELET_ERROR("capturing the reference failed: %s", errorText(e).c_str());
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++failed_;
-      last_error_ = e.what();
+      last_error_ = errorText(e);
     }
     return;
   }
@@ -446,10 +453,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     last_result_ = summary.str();
     last_alignment_ = alignment.str();
   } catch (const std::exception& e) {
-    warnThrottled("failed", std::string("detection failed: ") + e.what());
+    warnThrottled("failed", std::string("detection failed: ") + errorText(e));
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++failed_;
-    last_error_ = e.what();
+    last_error_ = errorText(e);
   }
 }
 

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "novelty_detection/error_text.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
@@ -65,7 +66,7 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
                                             SetReference::Response& res) {
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
-    const CloudFile file = loadCloudFile(req.path);
+    const CloudFile file = loadCloudFile(req.path, referenceLimits());
     reference_->setMap(referenceFromFile(file));
     res.success = true;
     res.message =
@@ -73,8 +74,8 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
-    res.message = e.what();
-    NODELET_WARN("set_reference failed: %s", e.what());
+    res.message = errorText(e);
+    NODELET_WARN("set_reference failed: %s", errorText(e).c_str());
   }
   return true;
 }
@@ -92,8 +93,8 @@ bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
-    res.message = e.what();
-    NODELET_WARN("save_reference failed: %s", e.what());
+    res.message = errorText(e);
+    NODELET_WARN("save_reference failed: %s", errorText(e).c_str());
   }
   return true;
 }
@@ -115,8 +116,8 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     res.message = std::to_string(result.segments.size()) + " novelties";
   } catch (const std::exception& e) {
     res.success = false;
-    res.message = e.what();
-    NODELET_WARN("detect failed: %s", e.what());
+    res.message = errorText(e);
+    NODELET_WARN("detect failed: %s", errorText(e).c_str());
   }
   return true;
 }
@@ -131,7 +132,7 @@ void NoveltyDetectorNodelet::onReconfigure(DetectorConfig& config, uint32_t /*le
     params_ = updated;
     NODELET_INFO("parameters updated; reference models are rebuilt on the next sweep");
   } catch (const std::exception& e) {
-    NODELET_WARN("reconfigure refused: %s", e.what());
+    NODELET_WARN("reconfigure refused: %s", errorText(e).c_str());
     paramsToConfigMsg(params_, msg);
     config.__fromMessage__(msg);
   }

@@ -1,3 +1,4 @@
+#include "novelty_detection/error_text.h"
 #include "novelty_detection/ros/tilt_scan_assembler_nodelet.h"
 
 #include <sensor_msgs/PointCloud2.h>
@@ -127,7 +128,7 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
     last_stamp_ = stamp;
     last_line_wall_ = ros::WallTime::now();
   } catch (const std::exception& e) {
-    NODELET_WARN_THROTTLE(kWarnPeriodS, "scan line skipped: %s", e.what());
+    NODELET_WARN_THROTTLE(kWarnPeriodS, "scan line skipped: %s", errorText(e).c_str());
   }
 }
 

@@ -288,8 +288,11 @@ int run(const Args& args) {
   if (!args.config.empty()) nd::loadParamsYaml(args.config, params);
   if (!args.up.empty()) params.preprocess.up = args.up;
   // loadCloud keeps the PCD VIEWPOINT as the cloud's sensor origin; the flags override it.
-  nd::Cloud reference = nd::loadCloud(args.reference);
-  nd::Cloud current = nd::loadCloud(args.current);
+  // Both clouds get preprocess/max_points, checked on the file's header before its body.
+  nd::LoadLimits limits;
+  limits.max_points = static_cast<std::uint64_t>(params.preprocess.max_points);
+  nd::Cloud reference = nd::loadCloud(args.reference, limits);
+  nd::Cloud current = nd::loadCloud(args.current, limits);
   Assumptions as;
   // The flags override the configuration (preprocess/reference_origin, current_origin,
   // sensor_frame), which overrides the files' VIEWPOINT.

@@ -6,6 +6,8 @@
 #include <iostream>
 #include <string>
 
+#include "novelty_detection/error_text.h"
+
 namespace novelty_detection {
 
 /// parse(argc, argv) returns the tool's options; run(options) returns its exit code. Errors
@@ -23,7 +25,7 @@ int runTool(const char* name, const std::string& usage_hint, int argc, char** ar
   try {
     return run(options);
   } catch (const std::exception& e) {
-    std::cerr << name << ": " << e.what() << "\n";
+    std::cerr << name << ": " << errorText(e) << "\n";
     return 1;
   }
 }

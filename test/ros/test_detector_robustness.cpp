@@ -8,6 +8,7 @@
 #include <unistd.h>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <mutex>
 #include <vector>
 
@@ -159,6 +160,21 @@ TEST_F(DetectorTest, ReferenceServicesAndDetect) {
   ASSERT_TRUE(ros::service::call("/detector/set_reference", set));
   EXPECT_FALSE(set.response.success);
   EXPECT_NE(set.response.message.find("does_not_exist"), std::string::npos) << set.response.message;
+  // A file claiming more points than preprocess/max_points (2,000,000) is refused from its
+  // header, before its body is read, naming the limit; the reference in use stays.
+  const std::string oversized = tmpPath("oversized.pcd");
+  {
+    std::ofstream out(oversized);
+    out << "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 30000000\n"
+           "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 30000000\nDATA binary\n";
+  }
+  set.request.path = oversized;
+  ASSERT_TRUE(ros::service::call("/detector/set_reference", set));
+  EXPECT_FALSE(set.response.success);
+  EXPECT_NE(set.response.message.find("30000000 points, more than preprocess/max_points = 2000000"),
+            std::string::npos)
+      << set.response.message;
+  std::remove(oversized.c_str());
   set.request.path = tmpPath("captured.pcd");
   ASSERT_TRUE(ros::service::call("/detector/set_reference", set));
   EXPECT_TRUE(set.response.success) << set.response.message;

@@ -68,6 +68,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   /// A reference file's cloud with its sensor origin: preprocess/reference_origin if set,
   /// else (0, 0, 0) with preprocess/sensor_frame, else the file's viewpoint.
   Cloud referenceFromFile(const CloudFile& file) const;
+  /// A reference file may hold what a sweep may: preprocess/max_points, checked on its header.
+  LoadLimits referenceLimits() const;
 
   bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSetReference(SetReference::Request& req, SetReference::Response& res);
