@@ -1,4 +1,3 @@
-#include "novelty_detection/error_text.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/reconfigure.h"
 
@@ -17,6 +16,7 @@
 
 #include "novelty_detection/NoveltyArray.h"
 #include "novelty_detection/alignment/alignment.h"
+#include "novelty_detection/error_text.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
@@ -65,6 +65,12 @@ bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) 
 NoveltyDetectorNodelet::NoveltyDetectorNodelet() = default;
 
 NoveltyDetectorNodelet::~NoveltyDetectorNodelet() {
+  // Services run on their own thread: no call may start or run while the rest goes away.
+  if (service_spinner_) service_spinner_->stop();
+  capture_srv_.shutdown();
+  set_srv_.shutdown();
+  save_srv_.shutdown();
+  detect_srv_.shutdown();
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     stop_ = true;
@@ -118,12 +124,19 @@ void NoveltyDetectorNodelet::onInit() {
   gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
   novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
 
-  capture_srv_ =
-      pnh.advertiseService("capture_reference", &NoveltyDetectorNodelet::onCaptureReference, this);
-  set_srv_ = pnh.advertiseService("set_reference", &NoveltyDetectorNodelet::onSetReference, this);
+  // Services on their own queue and thread: a long set_reference or detect call never holds
+  // up the input callbacks, the diagnostics timer or live tuning (calls are served in turn).
+  ros::NodeHandle service_nh(pnh);
+  service_nh.setCallbackQueue(&service_queue_);
+  capture_srv_ = service_nh.advertiseService("capture_reference",
+                                             &NoveltyDetectorNodelet::onCaptureReference, this);
+  set_srv_ =
+      service_nh.advertiseService("set_reference", &NoveltyDetectorNodelet::onSetReference, this);
   save_srv_ =
-      pnh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
-  detect_srv_ = pnh.advertiseService("detect", &NoveltyDetectorNodelet::onDetect, this);
+      service_nh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
+  detect_srv_ = service_nh.advertiseService("detect", &NoveltyDetectorNodelet::onDetect, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
 
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
   diagnostics_->setHardwareID("none");
@@ -159,7 +172,13 @@ void NoveltyDetectorNodelet::onInit() {
              tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
         onTransformFailure(msg, reason);
       });
-  input_sub_ = pnh.subscribe("input", 2, &NoveltyDetectorNodelet::onInput, this);
+  // A MessageEvent callback (named as such: a lambda would convert from the message pointer
+  // and lose the connection header) tells which publisher sent each sweep.
+  const boost::function<void(const ros::MessageEvent<const sensor_msgs::PointCloud2>&)> on_input =
+      [this](const ros::MessageEvent<const sensor_msgs::PointCloud2>& event) {
+        onInput(event.getConstMessage(), event.getPublisherName());
+      };
+  input_sub_ = pnh.subscribe<sensor_msgs::PointCloud2>("input", 2, on_input);
 
   {
     // The worker may already have failed on ~reference_file: its error follows "ready".
@@ -175,11 +194,24 @@ void NoveltyDetectorNodelet::onInit() {
                node_params_.fixed_frame.c_str(), input_sub_.getTopic().c_str());
 }
 
-void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& msg,
+                                     const std::string& publisher) {
   try {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++received_;
+      // Each publisher numbers its own messages: gaps are counted per publisher (a bounded
+      // set: every rosbag play is a new one).
+      if (gaps_.size() >= 64 && gaps_.count(publisher) == 0) gaps_.clear();
+      const std::size_t lost =
+          gaps_[publisher].observe(msg->header.seq, msg->header.stamp.toSec());
+      lost_upstream_ += lost;
+      if (lost > 0)
+        NODELET_WARN_THROTTLE(kWarnPeriodS,
+                              "%zu sweep(s) from %s lost before reaching the node (header seq "
+                              "%u, stamp %.3f); %zu in all",
+                              lost, publisher.c_str(), msg->header.seq,
+                              msg->header.stamp.toSec(), lost_upstream_);
     }
     // The tf filter waits silently for frames that never come: say so at once.
     if (msg->header.frame_id.empty()) {
@@ -243,11 +275,17 @@ void NoveltyDetectorNodelet::workerLoop() {
   }
 }
 
+Params NoveltyDetectorNodelet::currentParams() const {
+  std::lock_guard<std::mutex> lock(params_mutex_);
+  return params_;
+}
+
 Cloud NoveltyDetectorNodelet::referenceFromFile(const CloudFile& file) const {
   Cloud cloud = withViewpoint(file);
-  const std::string how = resolveOrigin(
-      cloud, parseOrigin("preprocess/reference_origin", params_.preprocess.reference_origin),
-      params_.preprocess.sensor_frame);
+  const PreprocessParams given = currentParams().preprocess;
+  const std::string how =
+      resolveOrigin(cloud, parseOrigin("preprocess/reference_origin", given.reference_origin),
+                    given.sensor_frame);
   if (how == "unknown")
     NODELET_WARN(
         "the reference file has no viewpoint: visibility and disappearances are off; set "
@@ -257,7 +295,7 @@ Cloud NoveltyDetectorNodelet::referenceFromFile(const CloudFile& file) const {
 
 LoadLimits NoveltyDetectorNodelet::referenceLimits() const {
   LoadLimits limits;
-  limits.max_points = static_cast<std::uint64_t>(params_.preprocess.max_points);
+  limits.max_points = static_cast<std::uint64_t>(currentParams().preprocess.max_points);
   return limits;
 }
 

@@ -163,6 +163,7 @@ void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("sweeps received", received_);
   stat.add("sweeps processed", processed_);
   stat.add("sweeps dropped (stale)", dropped_);
+  stat.add("sweeps lost upstream", lost_upstream_);
   stat.add("sweeps rejected", rejected_);
   stat.add("detections failed", failed_);
   stat.add("transform failures", tf_failures_);

@@ -43,6 +43,7 @@ void TiledReference::setMap(const Cloud& map) {
   map_ = std::move(copy);
   tiles_ = std::move(tiles);
   cache_.clear();
+  ++generation_;
 }
 
 void TiledReference::setParams(const Params& params) {
@@ -50,6 +51,7 @@ void TiledReference::setParams(const Params& params) {
   std::lock_guard<std::mutex> lock(mutex_);
   params_ = params;
   cache_.clear();
+  ++generation_;
 }
 
 bool TiledReference::hasMap() const {
@@ -70,7 +72,7 @@ std::size_t TiledReference::mapSize() const {
 
 std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3d& lo,
                                                             const Eigen::Vector3d& hi) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::unique_lock<std::mutex> lock(mutex_);
   if (!map_) throw std::logic_error("no reference map set");
   TileSet key;
   if (tile_size_m_ <= 0.0) {
@@ -111,9 +113,21 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
   for (const auto& t : key) {
     for (int i : tiles_.at(t)) crop.push_back((*map_)[i]);
   }
-  auto pipeline = std::make_shared<Pipeline>(params_);
+  // The model is built without the lock (seconds on a large map): the diagnostics, the
+  // services and other sweeps read the map meanwhile. It is cached only when neither the
+  // map nor the parameters changed during the build, and a model another thread built for
+  // the same tiles meanwhile is preferred.
+  const Params params = params_;
+  const std::uint64_t generation = generation_;
+  lock.unlock();
+  auto pipeline = std::make_shared<Pipeline>(params);
   pipeline->setReference(crop);
+  lock.lock();
   ++models_built_;
+  if (generation != generation_) return pipeline;
+  for (const auto& entry : cache_) {
+    if (entry.first == key) return entry.second;
+  }
   cache_.emplace_front(std::move(key), pipeline);
   while (cache_.size() > cache_size_) cache_.pop_back();
   return pipeline;

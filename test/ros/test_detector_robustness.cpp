@@ -1,15 +1,23 @@
 // The detector's reference services work, and bad sweeps (empty, all NaN, no x field,
 // unknown frame) are refused with a warning while the next good sweep is still served.
 #include <gtest/gtest.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
+#include <rosbag/bag.h>
 #include <rosgraph_msgs/Log.h>
 #include <std_srvs/Trigger.h>
 
 #include <unistd.h>
 #include <cmath>
+#include <chrono>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <future>
+#include <map>
 #include <mutex>
+#include <random>
 #include <vector>
 
 #include "novelty_detection/Detect.h"
@@ -36,6 +44,15 @@ class DetectorTest : public ::testing::Test {
                                                    if (m->level >= rosgraph_msgs::Log::WARN)
                                                      warnings_.push_back(m->msg);
                                                  });
+    diag_sub_ = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
+        "/diagnostics", 10, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+          for (const auto& st : m->status) {
+            if (st.name.find("novelty detector") == std::string::npos) continue;
+            std::lock_guard<std::mutex> lock(mutex_);
+            ++diagnostics_seen_;
+            for (const auto& kv : st.values) counters_[kv.key] = kv.value;
+          }
+        });
     ASSERT_TRUE(waitFor(
         [this] {
           return pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
@@ -106,9 +123,27 @@ class DetectorTest : public ::testing::Test {
     return "/tmp/novelty_rostest_" + std::to_string(getpid()) + "_" + name;
   }
 
+  long counter(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = counters_.find(key);
+    return it == counters_.end() ? -1 : std::stol(it->second);
+  }
+  std::size_t diagnosticsSeen() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return diagnostics_seen_;
+  }
+  bool hasResult(const ros::Time& stamp) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& r : results_)
+      if (r.header.stamp == stamp) return true;
+    return false;
+  }
+
   ros::NodeHandle nh_;
   ros::Publisher pub_;
-  ros::Subscriber sub_, log_sub_;
+  ros::Subscriber sub_, log_sub_, diag_sub_;
+  std::map<std::string, std::string> counters_;
+  std::size_t diagnostics_seen_ = 0;
   std::mutex mutex_;
   std::vector<novelty_detection::NoveltyArray> results_;
   std::vector<std::string> warnings_;
@@ -235,6 +270,74 @@ TEST_F(DetectorTest, BadSweepsAreRefusedAndTheNextGoodOneIsServed) {
         return !results_.empty() && results_.back().header.stamp == stamp;
       },
       20.0));
+}
+
+TEST_F(DetectorTest, ServicesRunBesideSweepsAndLostSweepsAreCounted) {
+  captureRoom();
+  ASSERT_TRUE(goodSweepIsServed());
+  // A detect call on a large cloud (the room 300 times over, jittered) takes seconds. While
+  // it runs, sweeps keep being received and served and /diagnostics keeps coming: the
+  // services have their own thread.
+  novelty_detection::Cloud big;
+  std::mt19937 rng(5);
+  std::normal_distribution<float> jitter(0.f, 0.005f);
+  for (int copy = 0; copy < 300; ++copy)
+    for (const auto& p : room_) big.push_back(novelty_detection::PointT(
+        p.x + jitter(rng), p.y + jitter(rng), p.z + jitter(rng)));
+  novelty_detection::Detect detect;
+  detect.request.cloud = test_helpers::toMsg(big, "map", ros::Time::now());
+  ASSERT_TRUE(waitFor([&] { return counter("sweeps lost upstream") >= 0; }, 10.0));
+  const long lost_before = counter("sweeps lost upstream");
+
+  const auto t0 = std::chrono::steady_clock::now();
+  auto call = std::async(std::launch::async,
+                         [&] { return ros::service::call("/detector/detect", detect); });
+  std::vector<ros::Time> sent_during_call;
+  std::size_t diagnostics_during_call = 0;
+  const std::size_t diagnostics_at_start = diagnosticsSeen();
+  for (int i = 0; i < 6; ++i) {
+    sensor_msgs::PointCloud2 msg = test_helpers::toMsg(room_, "map", ros::Time::now());
+    pub_.publish(msg);
+    sent_during_call.push_back(msg.header.stamp);
+    const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(0.3);
+    while (ros::WallTime::now() < until) {
+      ros::spinOnce();
+      ros::WallDuration(0.01).sleep();
+    }
+  }
+  bool served_during_call = false;
+  while (call.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+    ros::spinOnce();
+    for (const ros::Time& stamp : sent_during_call) served_during_call |= hasResult(stamp);
+    diagnostics_during_call = diagnosticsSeen() - diagnostics_at_start;
+  }
+  const double call_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(call.get());
+  EXPECT_TRUE(detect.response.success) << detect.response.message;
+  ASSERT_GT(call_s, 2.5) << "the detect call must outlast the sweeps sent during it";
+  EXPECT_TRUE(served_during_call) << "no sweep served during a " << call_s << " s detect call";
+  EXPECT_GE(diagnostics_during_call, 1u) << "no /diagnostics during a " << call_s << " s call";
+
+  // A recording whose sweeps 4 and 5 never made it into the bag (header seq 1, 2, 3, 6, 7,
+  // 8), replayed by rosbag play: the node counts the 2 lost sweeps of that publisher.
+  const std::string bag_path = tmpPath("gaps.bag");
+  {
+    rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
+    const ros::Time start = ros::Time::now();
+    int i = 0;
+    for (std::uint32_t seq : {1u, 2u, 3u, 6u, 7u, 8u}) {
+      sensor_msgs::PointCloud2 msg =
+          test_helpers::toMsg(room_, "map", start + ros::Duration(0.2 * (seq - 1)));
+      msg.header.seq = seq;
+      bag.write("/sweep", start + ros::Duration(0.2 * i++), msg);
+    }
+  }
+  const std::string play = "rosbag play -q --wait-for-subscribers " + bag_path + " > /dev/null";
+  ASSERT_EQ(std::system(play.c_str()), 0) << play;
+  EXPECT_TRUE(waitFor([&] { return counter("sweeps lost upstream") == lost_before + 2; }, 10.0))
+      << counter("sweeps lost upstream") << " lost, " << lost_before << " before";
+  std::remove(bag_path.c_str());
 }
 
 int main(int argc, char** argv) {

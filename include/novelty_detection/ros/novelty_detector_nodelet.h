@@ -4,7 +4,9 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
 #include <nodelet/nodelet.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
@@ -26,6 +28,7 @@
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/params.h"
 #include "novelty_detection/ros/node_params.h"
+#include "novelty_detection/ros/sweep_gaps.h"
 #include "novelty_detection/ros/tiled_reference.h"
 
 namespace novelty_detection {
@@ -35,7 +38,8 @@ namespace novelty_detection {
 /// replaces it and is counted as dropped) that compares it with the reference map and
 /// publishes ~novelty_cloud, ~disappeared_cloud, ~labelled_cloud, ~superquadrics, ~gaussians
 /// and ~novelties.
-/// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect.
+/// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect, served on their
+/// own thread.
 class NoveltyDetectorNodelet : public nodelet::Nodelet {
  public:
   NoveltyDetectorNodelet();
@@ -47,7 +51,7 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   void onInit() override;
   void publishStatus(const std::string& status);
 
-  void onInput(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void onInput(const sensor_msgs::PointCloud2::ConstPtr& msg, const std::string& publisher);
   void onTransformable(const sensor_msgs::PointCloud2::ConstPtr& msg);
   void onTransformFailure(const sensor_msgs::PointCloud2::ConstPtr& msg,
                           tf2_ros::filter_failure_reasons::FilterFailureReason reason);
@@ -70,6 +74,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   Cloud referenceFromFile(const CloudFile& file) const;
   /// A reference file may hold what a sweep may: preprocess/max_points, checked on its header.
   LoadLimits referenceLimits() const;
+  /// A copy of the parameters (live tuning may change them from another thread).
+  Params currentParams() const;
 
   bool onCaptureReference(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSetReference(SetReference::Request& req, SetReference::Response& res);
@@ -95,6 +101,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   ros::Publisher status_pub_, novelty_cloud_pub_, disappeared_cloud_pub_, labelled_cloud_pub_,
       superquadrics_pub_, gaussians_pub_, novelties_pub_;
   ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_;
+  ros::CallbackQueue service_queue_;  // the services' own, spun by service_spinner_
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
 
@@ -102,7 +110,7 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<DetectorConfig>> reconfigure_;
-  std::mutex params_mutex_;  // guards params_ after onInit
+  mutable std::mutex params_mutex_;  // guards params_ after onInit
 
   // Depth-1 hand-over to the worker.
   std::mutex status_mutex_;      // orders "ready" and a reference file error on ~status
@@ -119,6 +127,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   mutable std::mutex stats_mutex_;
   std::size_t received_ = 0, processed_ = 0, dropped_ = 0, rejected_ = 0, failed_ = 0,
               tf_failures_ = 0;
+  // Sweeps lost before reaching the node, from each publisher's header seq and stamps.
+  std::map<std::string, SweepGaps> gaps_;
+  std::size_t lost_upstream_ = 0;
   double last_processing_ms_ = 0.0, max_processing_ms_ = 0.0;
   std::string last_result_ = "none yet", last_error_;
   std::string last_alignment_ = "none yet";  // fine alignment of the last sweep

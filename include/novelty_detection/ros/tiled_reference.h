@@ -39,7 +39,8 @@ class TiledReference {
 
   /// The pipeline whose reference is the map cropped to the tiles overlapping the box
   /// [lo, hi] (x, y only). Throws std::logic_error without a map, std::runtime_error when
-  /// no map point lies in that box, and whatever Pipeline::setReference throws.
+  /// no map point lies in that box, and whatever Pipeline::setReference throws. A new model
+  /// is built without holding the lock, so the other members answer meanwhile.
   std::shared_ptr<const Pipeline> pipelineFor(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
 
   /// New parameters (validated by the caller) for the models built from now on; drops the
@@ -63,6 +64,7 @@ class TiledReference {
   std::map<TileKey, Indices> tiles_;  // map point indices per tile
   std::list<std::pair<TileSet, std::shared_ptr<const Pipeline>>> cache_;  // front = newest
   std::size_t models_built_ = 0;
+  std::uint64_t generation_ = 0;  // bumped when the map or the parameters change
 };
 
 }  // namespace novelty_detection
