@@ -407,7 +407,21 @@ Result Pipeline::detect(const Cloud& given) const {
   std::size_t out_of_range = 0;
   Cloud cleaned;
   const Cloud& input = usableView(given, &cleaned, &out_of_range);
-  requireOverlap(input, ref.extent);
+  // Share of the sweep near the map: the floor of the distance is the one tau has.
+  const double near_m =
+      overlapDistance(ref.extent, params_.segmentation.min_novelty_distance_m);
+  // The map's points are in the up frame, its extent in the input frame.
+  const Eigen::Matrix3f R_up = ref.R_up.cast<float>();
+  std::size_t usable = 0, near = 0;
+  const std::size_t stride = std::max<std::size_t>(1, input.size() / 2000);
+  for (std::size_t i = 0; i < input.size(); i += stride) {
+    if (!usablePoint(input[i])) continue;
+    ++usable;
+    const Eigen::Vector3f p = point3f(input[i]);
+    near += ref.points.distance(ref.rotated ? Eigen::Vector3f(R_up * p) : p) <= near_m;
+  }
+  const double overlap = usable ? static_cast<double>(near) / usable : 1.0;
+  requireOverlap(input, ref.extent, overlap);
   Result result = ref.rotated ? detectInUpFrame(params_, ref, rotateCloud(input, ref.R_up))
                               : detectInUpFrame(params_, ref, input);
   if (ref.rotated) toInputFrame(ref, input, &result);
@@ -421,6 +435,7 @@ Result Pipeline::detect(const Cloud& given) const {
   warn(ref.out_of_range, "reference");
   result.up = ref.up.up;
   result.up_source = ref.up.source;
+  result.overlap = overlap;
   return result;
 }
 

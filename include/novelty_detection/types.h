@@ -149,6 +149,9 @@ struct Result {
   /// ("constant", "linear in range", "quadratic in range"; empty when too few patches).
   double tau_m = 0.0;
   double noise_sigma_m = 0.0;
+  /// Share of the sweep's usable points (a sample of up to 2000) within overlapDistance of
+  /// the map (input_check.h); below kMinOverlap the sweep is refused as not overlapping.
+  double overlap = 1.0;
   std::string noise_model;
   /// What the detector set aside and the user should know (e.g. points with absurd
   /// coordinates treated as missing), one sentence each.

@@ -1,5 +1,6 @@
 #include "novelty_detection/preprocess/input_check.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
@@ -63,18 +64,25 @@ double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double
   return usable ? static_cast<double>(inside) / usable : 1.0;
 }
 
-void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent) {
+double overlapDistance(const Eigen::AlignedBox3d& reference_extent, double floor_m) {
+  const double diagonal = reference_extent.isEmpty() ? 0.0 : reference_extent.diagonal().norm();
+  return std::max(floor_m, 0.01 * diagonal);
+}
+
+void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent,
+                    double overlap) {
   if (reference_extent.isEmpty()) return;
   const double margin = 0.1 * reference_extent.diagonal().norm();
   const double share = shareInside(sweep, reference_extent, margin);
-  if (share < 0.25) {
-    char buf[320];
+  if (share < 0.25 || overlap < kMinOverlap) {
+    char buf[400];
     std::snprintf(buf, sizeof buf,
-                  "the sweep does not overlap the reference: %.1f %% of its points lie within "
-                  "the reference's extent (grown by %.2f m); check the frames and the sensor "
-                  "pose",
-                  100.0 * share, margin);
-    throw std::runtime_error(buf);
+                  "the sweep does not overlap the reference: overlap %.3f (%.1f %% of its "
+                  "points within %.2f m of the map, %.1f %% within the map's extent grown by "
+                  "%.2f m); check the frames and the sensor pose",
+                  overlap, 100.0 * overlap, overlapDistance(reference_extent, 0.0), 100.0 * share,
+                  margin);
+    throw NoOverlapError(buf, overlap);
   }
 }
 

@@ -1,6 +1,7 @@
 // Services and diagnostics of NoveltyDetectorNodelet (the sweep path is in
 // novelty_detector_nodelet.cpp).
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
@@ -155,6 +156,11 @@ void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrappe
     stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "invalid parameters");
   } else if (!reference_->hasMap()) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no reference map");
+  } else if (!last_compared_) {
+    char text[96];
+    std::snprintf(text, sizeof text, "last sweep not compared: overlap %.3f with the map",
+                  last_overlap_);
+    stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, text);
   } else if (!last_error_.empty() && processed_ == 0) {
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, last_error_);
   } else {
@@ -166,6 +172,8 @@ void NoveltyDetectorNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("sweeps lost upstream", lost_upstream_);
   stat.add("sweeps rejected", rejected_);
   stat.add("detections failed", failed_);
+  stat.add("sweeps not compared (no overlap)", not_compared_);
+  stat.add("last overlap", last_overlap_);
   stat.add("transform failures", tf_failures_);
   stat.add("last processing time [ms]", last_processing_ms_);
   stat.add("max processing time [ms]", max_processing_ms_);

@@ -1,11 +1,11 @@
 #include "novelty_detection/ros/tiled_reference.h"
 
-#include "novelty_detection/preprocess/input_check.h"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "novelty_detection/preprocess/input_check.h"
 
 namespace novelty_detection {
 
@@ -98,7 +98,10 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
     }
   }
   if (key.empty()) {
-    throw std::runtime_error("the reference map has no points where the sweep is");
+    throw NoOverlapError(
+        "the sweep does not overlap the reference: overlap 0.000 (the map has no points "
+        "where the sweep is); check the frames and the sensor pose",
+        0.0);
   }
   for (auto it = cache_.begin(); it != cache_.end(); ++it) {
     if (it->first == key) {

@@ -27,8 +27,10 @@
 
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/output_set.h"
 #include "novelty_detection/io/params_io.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
 #include "tool_main.h"
 
@@ -61,8 +63,13 @@ disappeared_labels.txt and disappeared_superquadrics.json.
                            from the reference (the floor or table plane below the sensor).
 The visibility rules and disappearances need each cloud's sensor origin; without one they
 are off, and stderr and report.json (sensor_origins, visibility_checked) say so.
-Exit codes: 0 done, 1 unreadable or invalid input or configuration, 2 bad arguments.
+DIR/complete, written last, lists the files of the set: without it a run was interrupted.
+Exit codes: 0 done, 1 unreadable or invalid input or configuration, 2 bad arguments,
+3 the clouds do not overlap enough to compare (report.json gives "overlap"; never "no change").
 )";
+
+/// The clouds do not overlap enough to be compared.
+constexpr int kExitNoOverlap = 3;
 
 struct Args {
   std::string reference, current, out, config, up;
@@ -133,16 +140,6 @@ Args parseArgs(int argc, char** argv) {
 }
 
 json vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
-
-void writeText(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw std::runtime_error("cannot write " + path);
-  }
-  std::filesystem::rename(tmp, path);
-}
 
 // A distinct, deterministic colour per segment id (golden-ratio hue walk); grey = not novel.
 void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
@@ -273,6 +270,8 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"floor", r.floor_found ? json::array({r.floor[0], r.floor[1], r.floor[2], r.floor[3]})
                                   : json(nullptr)},
           {"tau_m", r.tau_m},
+          {"overlap", r.overlap},
+          {"compared", true},
           {"noise",
            {{"sigma_m", r.noise_sigma_m},
             {"model", r.noise_model.empty() ? json(nullptr) : json(r.noise_model)}}},
@@ -313,36 +312,49 @@ int run(const Args& args) {
     std::cerr << "novelty_detect: the reference's sensor origin is unknown (no VIEWPOINT): "
                  "the visibility rules are off; give --reference-origin X Y Z or "
                  "--sensor-frame\n";
-  std::filesystem::create_directories(args.out);
+  // The output files are written as one set (staged, then renamed in, `complete` last).
+  nd::OutputSet out(args.out);
 
   using Clock = std::chrono::steady_clock;
   nd::Pipeline pipeline(params);
   auto t0 = Clock::now();
   pipeline.setReference(reference);
   auto t1 = Clock::now();
-  const nd::Result result = pipeline.detect(current);
+  nd::Result result;
+  try {
+    result = pipeline.detect(current);
+  } catch (const nd::NoOverlapError& e) {
+    // Not "no change": the set holds only a report saying why nothing was compared.
+    out.writeText("report.json", json({{"overlap", e.overlap()},
+                                       {"compared", false},
+                                       {"error", e.what()}})
+                                         .dump(2) +
+                                     "\n");
+    out.commit();
+    std::cerr << "novelty_detect: " << e.what() << "\n";
+    return kExitNoOverlap;
+  }
   auto t2 = Clock::now();
   const double ref_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
   const double det_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
 
-  const std::filesystem::path dir(args.out);
   std::string labels;
   labels.reserve(result.labels.size() * 2);
   for (int l : result.labels) labels += std::to_string(l) + '\n';
-  writeText((dir / "labels.txt").string(), labels);
-  writeText((dir / "superquadrics.json").string(),
+  out.writeText("labels.txt", labels);
+  out.writeText("superquadrics.json",
             superquadricsJson(result.superquadrics).dump(2) + "\n");
   // Visibility outputs: newly visible flags per current point, disappearance
   // labels per reference point (same convention as labels.txt) and their superquadrics.
   std::string flags;
   flags.reserve(result.newly_visible.size() * 2);
   for (auto f : result.newly_visible) flags += f ? "1\n" : "0\n";
-  writeText((dir / "newly_visible.txt").string(), flags);
+  out.writeText("newly_visible.txt", flags);
   std::string gone;
   gone.reserve(result.disappeared_labels.size() * 2);
   for (int l : result.disappeared_labels) gone += std::to_string(l) + '\n';
-  writeText((dir / "disappeared_labels.txt").string(), gone);
-  writeText((dir / "disappeared_superquadrics.json").string(),
+  out.writeText("disappeared_labels.txt", gone);
+  out.writeText("disappeared_superquadrics.json",
             superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's sensor origin.
   as.disappearances_checked =
@@ -357,7 +369,7 @@ int run(const Args& args) {
                                               : "no floor plane found: +z assumed")
               << "\n";
   for (const std::string& w : result.warnings) std::cerr << "novelty_detect: " << w << "\n";
-  writeText((dir / "report.json").string(),
+  out.writeText("report.json",
             reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
 
   // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
@@ -373,14 +385,15 @@ int run(const Args& args) {
     p.x = shown[i].x, p.y = shown[i].y, p.z = shown[i].z;
     colour(result.labels[i], p.r, p.g, p.b);
   }
-  if (coloured.empty() ||
-      pcl::io::savePCDFileBinary((dir / "segments.pcd").string(), coloured) != 0) {
+  const std::string segments = out.stagedPath("segments.pcd");
+  if (coloured.empty() || pcl::io::savePCDFileBinary(segments, coloured) != 0) {
     // PCL refuses empty clouds: write a valid empty PCD by hand.
-    if (!coloured.empty()) throw std::runtime_error("cannot write segments.pcd");
-    writeText((dir / "segments.pcd").string(),
+    if (!coloured.empty()) throw std::runtime_error("cannot write " + segments);
+    out.writeText("segments.pcd",
               "VERSION .7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
               "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
   }
+  out.commit();
   std::cout << "novelty_detect: " << result.segments.size() << " segment(s), "
             << result.superquadrics.size() << " superquadric(s), "
             << result.disappeared_segments.size() << " disappearance(s), detection " << det_ms

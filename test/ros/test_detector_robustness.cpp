@@ -259,6 +259,31 @@ TEST_F(DetectorTest, BadSweepsAreRefusedAndTheNextGoodOneIsServed) {
                                   "'no_such_frame' is unknown to tf"));
   EXPECT_TRUE(goodSweepIsServed());
 
+  // A sweep 500 m off the map is not "no change": no result, a warning, diagnostics ERROR
+  // with the overlap, and the next good sweep is compared again.
+  novelty_detection::Cloud far = room_;
+  for (auto& p : far) p.x += 500.0f;
+  std::size_t results_before = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    results_before = results_.size();
+  }
+  EXPECT_TRUE(publishUntilWarning(test_helpers::toMsg(far, "map", ros::Time::now()),
+                                  "does not overlap the reference"));
+  EXPECT_TRUE(waitFor([&] { return counter("sweeps not compared (no overlap)") >= 1; }, 10.0));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    EXPECT_EQ(results_.size(), results_before) << "a sweep off the map was answered";
+    EXPECT_LT(std::stod(counters_["last overlap"]), 0.1);
+  }
+  EXPECT_TRUE(goodSweepIsServed());
+  EXPECT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return std::stod(counters_["last overlap"]) > 0.9;
+      },
+      10.0));
+
   // A sweep in the laser frame goes through tf.
   novelty_detection::Cloud in_laser = room_;
   for (auto& p : in_laser) p.x -= 1.0f;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;
@@ -101,8 +102,18 @@ TEST_F(DegenerateCurrent, CoplanarPatchInFreeSpace) {
 }
 
 TEST_F(DegenerateCurrent, CollinearPoints) {
+  // A line in mid-air and nothing else: no point is near the map, so it cannot be compared.
   const Cloud c = line({0.5f, 0.0f, 1.0f}, {2.5f, 0.0f, 1.0f}, 500);
-  expectSaneResult(pipeline_->detect(c), c.size());
+  try {
+    pipeline_->detect(c);
+    FAIL() << "a sweep with no point near the map was compared";
+  } catch (const NoOverlapError& e) {
+    EXPECT_LT(e.overlap(), kMinOverlap);
+  }
+  // The same line beside as many points of the map is compared.
+  Cloud mixed = c;
+  for (std::size_t i = 0; i < c.size(); ++i) mixed.push_back(mapPoint(7 * i));
+  expectSaneResult(pipeline_->detect(mixed), mixed.size());
 }
 
 TEST_F(DegenerateCurrent, SinglePointAndTwoPoints) {

@@ -88,14 +88,44 @@ TEST(InputCheck, SweepOffTheMapIsRefused) {
   try {
     pipeline.detect(far);
     FAIL() << "a sweep 500 m off the map was compared";
-  } catch (const std::runtime_error& e) {
+  } catch (const NoOverlapError& e) {
     EXPECT_NE(std::string(e.what()).find("does not overlap the reference"), std::string::npos)
         << e.what();
+    EXPECT_LT(e.overlap(), 0.01);
   }
-  // Half off the map (a robot at the map's edge) is still compared.
+  // The same place: nearly every point is near the map.
+  const Result same = pipeline.detect(corridor(2, true).cloud);
+  EXPECT_GT(same.overlap, 0.9);
+  // Half off the map (a robot at the map's edge) is still compared, and says so.
   Cloud half = corridor(2, true).cloud;
   for (PointT& p : half) p.x += 6.0f;
-  EXPECT_NO_THROW(pipeline.detect(half));
+  Result r;
+  EXPECT_NO_THROW(r = pipeline.detect(half));
+  EXPECT_GT(r.overlap, 0.1);
+  EXPECT_LT(r.overlap, 0.8);
+}
+
+TEST(InputCheck, SweepInsideTheExtentButAwayFromTheMapIsRefused) {
+  // Every point inside the map's box, none near its surfaces: the sweep shrunk to a third
+  // about the box's centre (a wrong frame or scale), so the extent test alone would pass.
+  const synthetic::Scene ref = corridor(1, false);
+  Eigen::Vector3f lo = ref.cloud[0].getVector3fMap(), hi = lo;
+  for (const PointT& p : ref.cloud) {
+    lo = lo.cwiseMin(p.getVector3fMap());
+    hi = hi.cwiseMax(p.getVector3fMap());
+  }
+  const Eigen::Vector3f centre = 0.5f * (lo + hi);
+  Cloud shrunk = corridor(2, true).cloud;
+  for (PointT& p : shrunk) p.getVector3fMap() = centre + (p.getVector3fMap() - centre) / 3.0f;
+  Pipeline pipeline(fastParams());
+  pipeline.setReference(ref.cloud);
+  try {
+    pipeline.detect(shrunk);
+    FAIL() << "a sweep away from every surface of the map was compared";
+  } catch (const NoOverlapError& e) {
+    EXPECT_LT(e.overlap(), kMinOverlap);
+    EXPECT_NE(std::string(e.what()).find("overlap"), std::string::npos) << e.what();
+  }
 }
 
 TEST(InputCheck, ReferenceOfNoExtentIsRefused) {

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/io/cloud_io.h"
@@ -94,6 +95,74 @@ TEST(NoveltyDetectCli, WritesTheContractFiles) {
   std::size_t n_ref = 0;
   for (int l; gone >> l; ++n_ref) EXPECT_EQ(l, 0);
   EXPECT_EQ(n_ref, s.reference.size());
+  fs::remove_all(dir);
+}
+
+// The output directory holds one run's set: `complete` lists it, and a sweep that cannot be
+// compared (500 m off the map) replaces it with a report only, exit code 3, never "no change".
+TEST(NoveltyDetectCli, OutputIsOneSetAndNoOverlapIsExitThree) {
+  const fs::path dir = tempDir("set");
+  sim::SceneConfig c;
+  c.seed = 4;
+  c.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
+  Cloud far = s.current;
+  for (PointT& p : far) p.x += 500.0f;
+  saveCloudAtomic((dir / "far.pcd").string(), far);
+  const fs::path out = dir / "out";
+  const auto listing = [&] {
+    std::ifstream in(out / "complete");
+    std::vector<std::string> names;
+    for (std::string n; std::getline(in, n);) names.push_back(n);
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const auto entries = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(out)) names.push_back(e.path().filename());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  CliRun r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                        (dir / "cur.pcd").string() + " --out " + out.string(),
+                    dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::vector<std::string> full = {"disappeared_labels.txt",
+                                         "disappeared_superquadrics.json",
+                                         "labels.txt",
+                                         "newly_visible.txt",
+                                         "report.json",
+                                         "segments.pcd",
+                                         "superquadrics.json"};
+  EXPECT_EQ(listing(), full);
+  std::vector<std::string> with_marker = full;
+  with_marker.push_back("complete");
+  std::sort(with_marker.begin(), with_marker.end());
+  EXPECT_EQ(entries(), with_marker);  // no staging or temporary file is left
+  {
+    std::ifstream rep(out / "report.json");
+    const auto report = nlohmann::json::parse(rep);
+    EXPECT_TRUE(report["compared"].get<bool>());
+    EXPECT_GT(report["overlap"].get<double>(), 0.9);
+  }
+
+  r = runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                 (dir / "far.pcd").string() + " --out " + out.string(),
+             dir);
+  EXPECT_EQ(r.code >> 8, 3) << r.err;
+  // One line says why (beside the note that the saved clouds carry no sensor origin).
+  const std::size_t why = r.err.find("does not overlap the reference");
+  ASSERT_NE(why, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("does not overlap", why + 1), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 2) << r.err;
+  std::ifstream rep(out / "report.json");
+  const auto report = nlohmann::json::parse(rep);
+  EXPECT_FALSE(report["compared"].get<bool>());
+  EXPECT_LT(report["overlap"].get<double>(), 0.1);
+  EXPECT_EQ(listing(), std::vector<std::string>{"report.json"});
+  EXPECT_EQ(entries(), (std::vector<std::string>{"complete", "report.json"}));
   fs::remove_all(dir);
 }
 

@@ -5,6 +5,7 @@
 
 #include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;
@@ -79,10 +80,15 @@ TEST(Pipeline, DegenerateCurrentClouds) {
   ASSERT_EQ(all_nan.labels.size(), 50u);
   EXPECT_FALSE(all_nan.hasNovelty());
 
-  Cloud few;  // fewer points than Gaussians
-  for (int i = 0; i < 3; ++i) few.push_back(PointT(5.0f + 0.1f * i, 0.0f, 1.0f));
+  Cloud few;  // fewer points than Gaussians, on the map
+  for (int i = 0; i < 3; ++i) few.push_back(s.reference[1000 * i]);
   const Result small = pipeline.detect(few);
   EXPECT_EQ(small.labels.size(), 3u);
+  EXPECT_FALSE(small.hasNovelty());
+  // Three points in mid-air: none near the map, not "no change" but refused.
+  Cloud floating;
+  for (int i = 0; i < 3; ++i) floating.push_back(PointT(5.0f + 0.1f * i, 0.0f, 1.0f));
+  EXPECT_THROW(pipeline.detect(floating), NoOverlapError);
 
   // NaN points interleaved with a real sweep keep their place and get 0.
   Cloud with_nan = s.current;

@@ -14,6 +14,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <stdexcept>
+#include <string>
 
 #include "novelty_detection/types.h"
 
@@ -48,9 +50,30 @@ void requireExtent(const Cloud& cloud, const char* what);
 /// Share of the usable points of `cloud` inside `extent` grown by `margin_m` on every side.
 double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double margin_m);
 
-/// Throws std::runtime_error when under a quarter of the sweep's usable points lie within
-/// the reference's extent grown by a tenth of its diagonal: the sweep is not of the mapped
-/// place (or not in its frame) and no answer would be honest.
-void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent);
+/// The sweep and the reference cannot be compared; overlap() is the share of the sweep's
+/// points near the map (as in Result::overlap).
+class NoOverlapError : public std::runtime_error {
+ public:
+  NoOverlapError(const std::string& what, double overlap)
+      : std::runtime_error(what), overlap_(overlap) {}
+  double overlap() const { return overlap_; }
+
+ private:
+  double overlap_;
+};
+
+/// Below this share of the sweep's points near the map (overlapDistance), it is refused.
+constexpr double kMinOverlap = 0.05;
+
+/// How near a point must be to the map to count as overlapping it: a hundredth of the
+/// reference's extent (10 cm in a 10 m room, 1 cm on a 1 m tabletop), at least `floor_m`.
+double overlapDistance(const Eigen::AlignedBox3d& reference_extent, double floor_m);
+
+/// Throws NoOverlapError when under a quarter of the sweep's usable points lie within the
+/// reference's extent grown by a tenth of its diagonal, or when `overlap` (the share of its
+/// points within overlapDistance of the map) is below kMinOverlap: the sweep is not of the
+/// mapped place (or not in its frame) and no answer would be honest.
+void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_extent,
+                    double overlap);
 
 }  // namespace novelty_detection

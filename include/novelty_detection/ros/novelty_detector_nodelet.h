@@ -126,7 +126,10 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   // Statistics for diagnostics (guarded by stats_mutex_).
   mutable std::mutex stats_mutex_;
   std::size_t received_ = 0, processed_ = 0, dropped_ = 0, rejected_ = 0, failed_ = 0,
-              tf_failures_ = 0;
+              tf_failures_ = 0, not_compared_ = 0;
+  // Share of the last sweep near the map; false when that sweep could not be compared.
+  double last_overlap_ = 0.0;
+  bool last_compared_ = true;
   // Sweeps lost before reaching the node, from each publisher's header seq and stamps.
   std::map<std::string, SweepGaps> gaps_;
   std::size_t lost_upstream_ = 0;
