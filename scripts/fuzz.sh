@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang (ASan + UBSan) and runs each for a fixed time.
 #   scripts/fuzz.sh [SECONDS_PER_TARGET]   (default 60)
-# NOVELTY_FUZZ_TARGETS="fuzz_pointcloud2" runs only the named targets.
+# NOVELTY_FUZZ_TARGETS="fuzz_pointcloud2" runs only the named targets (all are built).
 # Findings are written to .ws/fuzz/<target>/ (crash-*, timeout-*); copy a minimised one to
 # test/fuzz/corpus/<target>/ and add a regression test when fixing it.
 set -euo pipefail
@@ -25,7 +25,17 @@ build_target fuzz_cloud_file "$REPO/test/fuzz/fuzz_cloud_file.cpp" "$REPO/src/io
 # Message headers are header-only; rostime/roscpp_serialization hold the few out-of-line bits.
 build_target fuzz_pointcloud2 "$REPO/test/fuzz/fuzz_pointcloud2.cpp" "$REPO/src/ros/conversions.cpp" \
   -lroscpp_serialization -lrostime
-TARGETS="${NOVELTY_FUZZ_TARGETS:-fuzz_cloud_file fuzz_pointcloud2}"
+# The sweep path: conversion, the reference's tiles and the whole detector (the core's
+# sources as CMakeLists.txt lists them).
+mapfile -t CORE < <(sed -n '/^set(CORE_SOURCES/,/)/p' "$REPO/CMakeLists.txt" | tr ' ()' '\n\n\n' |
+  grep '^src/.*\.cpp$' | sed "s|^|$REPO/|")
+LEMON_INC=$(pkg-config --cflags lemon 2>/dev/null || true)
+build_target fuzz_sweep_path "$REPO/test/fuzz/fuzz_sweep_path.cpp" "$REPO/src/ros/conversions.cpp" \
+  "$REPO/src/ros/tiled_reference.cpp" "${CORE[@]}" -isystem /usr/include/ceres $LEMON_INC \
+  -lroscpp_serialization -lrostime -lpcl_kdtree -lpcl_search -lpcl_filters -lpcl_segmentation \
+  -lpcl_octree -lceres -lglog -lgflags -lspqr -lcholmod -lccolamd -lcamd -lcolamd -lamd \
+  -lcxsparse -lsuitesparseconfig -llapack -lblas -ltbb -llemon -lpthread
+TARGETS="${NOVELTY_FUZZ_TARGETS:-fuzz_cloud_file fuzz_pointcloud2 fuzz_sweep_path}"
 for target in $TARGETS; do
   corpus_src="$REPO/test/fuzz/corpus/${target#fuzz_}"
   work="$OUT/$target"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The whole test suite (gtests and rostests) under AddressSanitizer + UndefinedBehaviorSanitizer,
+# The whole test suite (gtests and rostests) under AddressSanitizer + UndefinedBehaviorSanitizer
+# (with float-cast-overflow: a float beyond an integer type's range converted to it),
 # in its own workspace so that it never mixes with the normal build:
 #   scripts/test_sanitizers.sh            (workspace: $NOVELTY_WS, default /tmp/novelty_sanitize_ws)
 # Any ASan report or UBSan finding aborts the process and so fails its test.

@@ -52,6 +52,20 @@ void requireExtent(const Cloud& cloud, const char* what) {
   }
 }
 
+bool usableBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
+  lo.setConstant(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  bool any = false;
+  for (const auto& p : cloud) {
+    if (!usablePoint(p)) continue;
+    const Eigen::Vector3d v(p.x, p.y, p.z);
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+    any = true;
+  }
+  return any;
+}
+
 double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double margin_m) {
   if (extent.isEmpty()) return 0.0;
   const Eigen::AlignedBox3d grown(extent.min().array() - margin_m, extent.max().array() + margin_m);

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
-#include <limits>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -20,24 +19,6 @@
 #include "novelty_detection/ros/ros_params.h"
 
 namespace novelty_detection {
-namespace {
-
-/// Box of the usable points (finite, within kMaxCoordinateM); false when there is none.
-bool finiteBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi) {
-  lo.setConstant(std::numeric_limits<double>::infinity());
-  hi = -lo;
-  bool any = false;
-  for (const auto& p : cloud) {
-    if (!usablePoint(p)) continue;
-    const Eigen::Vector3d v(p.x, p.y, p.z);
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-    any = true;
-  }
-  return any;
-}
-
-}  // namespace
 
 Params NoveltyDetectorNodelet::currentParams() const {
   std::lock_guard<std::mutex> lock(params_mutex_);
@@ -127,7 +108,7 @@ void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& clou
 Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& cloud_frame,
                                       const ros::Time& stamp, Cloud* reference) const {
   Eigen::Vector3d lo, hi;
-  if (!finiteBounds(cloud, lo, hi)) {
+  if (!usableBounds(cloud, lo, hi)) {
     throw std::invalid_argument("the sweep has no finite point (" + std::to_string(cloud.size()) +
                                 " points)");
   }

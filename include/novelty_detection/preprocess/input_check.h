@@ -47,6 +47,10 @@ Eigen::AlignedBox3d usableExtent(const Cloud& cloud);
 /// in one place: no map to compare with), naming `what` ("reference").
 void requireExtent(const Cloud& cloud, const char* what);
 
+/// Box of the usable points of `cloud` (finite, within kMaxCoordinateM); false when there is
+/// none. Safe to grow and to turn into tile indices.
+bool usableBounds(const Cloud& cloud, Eigen::Vector3d& lo, Eigen::Vector3d& hi);
+
 /// Share of the usable points of `cloud` inside `extent` grown by `margin_m` on every side.
 double shareInside(const Cloud& cloud, const Eigen::AlignedBox3d& extent, double margin_m);
 
