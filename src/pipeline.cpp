@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/segmentation/surface_creases.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/visibility/disappearance.h"
@@ -80,6 +82,8 @@ struct Detection {
   std::vector<Indices> pieces;  ///< the segments' points, largest first
   std::vector<int> owner_of;    ///< per current point: its novel Gaussian, or -1
   double link_radius = 0.0;
+  NearestNeighbourIndex kept_index;  ///< over s.pre.kept, in that order
+  RangeNoise noise;         ///< the sweep's range noise model (preprocess/range_noise.h)
   RangeImage current_view;  ///< the sweep from its own origin (when needed and known)
 };
 
@@ -139,7 +143,8 @@ void measureDistancesToMap(Detection& d) {
     sample.push_back(d.ref.points.distance(p));
     if (origin_known) range.push_back((p - origin).norm());
   }
-  const RangeNoise noise = estimateRangeNoise(d.s.tree, origin_known ? &origin : nullptr);
+  d.noise = estimateRangeNoise(d.s.tree, origin_known ? &origin : nullptr);
+  const RangeNoise& noise = d.noise;
   double median_range = 0.0;
   if (!range.empty()) {
     std::nth_element(range.begin(), range.begin() + range.size() / 2, range.end());
@@ -199,31 +204,14 @@ void segmentCandidates(Detection& d) {
   d.result.point_counts.emplace_back("novel_points", cand.novel.size());
   const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
   // One index over the kept points serves the link radius cap and the object completion.
-  NearestNeighbourIndex kept_index;
-  kept_index.build(current, d.s.pre.kept);
+  d.kept_index.build(current, d.s.pre.kept);
   SweepContext sweep;
   sweep.kept = &d.s.pre.kept;
-  sweep.kept_index = &kept_index;
+  sweep.kept_index = &d.kept_index;
   sweep.origin_known = sensorOriginKnown(current.sensor_origin_);
   sweep.origin = current.sensor_origin_.head<3>();
   d.pieces = segmentNovelPoints(current, cand.novel, cand.owner, num_gaussians,
                                 d.params.segmentation, &d.link_radius, sweep);
-  // Only points on a surface the reference saw join: within tau of the map, and (when the
-  // reference has a viewpoint) not out of its view (newly visible points). Points farther away that
-  // are not novel were turned down by the visibility rule or the posterior, and stay so.
-  const ReferenceModel& ref = d.ref;
-  const double tau = d.tau, margin = d.params.visibility.margin_factor * d.tau;
-  completeObjects(
-      current, d.s.pre.kept, d.link_radius, d.params.segmentation.object_share,
-      [&](int i) {
-        const Eigen::Vector3f p = point3f(current[i]);
-        if (ref.points.distance(p) > tau) return false;
-        if (ref.visibility.empty()) return true;
-        const Visibility v =
-            ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell);
-        return v != Visibility::kUnknown;
-      },
-      &d.pieces, &kept_index);
   d.owner_of.assign(current.size(), -1);
   for (std::size_t k = 0; k < cand.novel.size(); ++k) d.owner_of[cand.novel[k]] = cand.owner[k];
   d.timer.lap("segmentation");
@@ -277,6 +265,29 @@ void addHiddenNovelties(Detection& d) {
   }
   for (std::size_t k = 0; k < cand.hidden.size(); ++k)
     d.owner_of[cand.hidden[k]] = cand.hidden_owner[k];
+}
+
+/// Object completion (novelty_segmentation.h) once every rule has added its novel points:
+/// a connected piece of the sweep made mostly of them is a new object and its segments take
+/// all its points (those on a surface the map had, those the reference could not see behind
+/// the old object it replaces, those the posterior turned down); objects that touch are
+/// parted at the concave crease between them (surface_creases.h).
+void completeNewObjects(Detection& d) {
+  const Cloud& current = *d.current;
+  const SegmentationParams& sp = d.params.segmentation;
+  if (sp.object_share >= 1.0 || d.pieces.empty()) return;
+  std::unique_ptr<CreaseTest> creases;
+  if (sensorOriginKnown(current.sensor_origin_) && sp.crease_offset_factor > 0 &&
+      d.noise.estimated) {
+    const RangeNoise noise = d.noise;
+    creases = std::make_unique<CreaseTest>(
+        current, d.s.pre.kept, d.kept_index, current.sensor_origin_.head<3>(),
+        sp.crease_radius_factor * d.link_radius, sp.crease_offset_factor,
+        [noise](double r) { return noise.sigmaAt(r); });
+  }
+  completeObjects(current, d.s.pre.kept, d.link_radius, sp.object_share, {}, &d.pieces,
+                  &d.kept_index, creases.get(), sp.min_segment_points);
+  d.timer.lap("objects");
 }
 
 /// Segments from the pieces: ids 1.. largest first, labels per point, the Gaussians that
@@ -383,6 +394,7 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   buildCurrentView(d);
   findDisappearedStructure(d);
   addHiddenNovelties(d);
+  completeNewObjects(d);
   labelSegments(d);
   markNewlyVisible(d);
   fitSuperquadrics(d);

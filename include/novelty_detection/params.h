@@ -275,6 +275,8 @@ struct SegmentationParams {
   double merge_floor_gap_factor = 2.0;
   int min_segment_points = 20;
   double object_share = 0.6;
+  double crease_offset_factor = 3.0;
+  double crease_radius_factor = 2.0;
   double map_likelihood_quantile = 0.0;
   bool visibility_check = true;
   HiddenParams hidden;
@@ -313,6 +315,15 @@ struct SegmentationParams {
        "whole object: the parts of a new object that lie on a surface the map had (where an "
        "old object stood) are new too (1 disables)",
        0.0, 1.0});
+    f("crease_offset_factor", crease_offset_factor,
+      {"objects that touch are parted where their surfaces meet in a concave crease: a point "
+       "whose neighbours' centroid lies on the sensor's side of it by more than this many "
+       "noise sigmas (the sweep's range noise model at its range) ends the object it is "
+       "reached from (rule in segmentation/surface_creases.h; needs the sensor origin; 0 "
+       "disables)",
+       0.0, 1000.0});
+    f("crease_radius_factor", crease_radius_factor,
+      {"the crease test's neighbourhood radius, in link radii", 0.1, 100.0});
     f("map_likelihood_quantile", map_likelihood_quantile,
       {"a point whose density under the reference mixture exceeds this quantile of the map's "
        "own points' densities lies on a mapped surface and is not novel (0 disables)",

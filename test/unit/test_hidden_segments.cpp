@@ -47,9 +47,11 @@ Counts count(const Result& r, const std::vector<int>& truth, int id) {
 }
 
 /// Detection of `s` with the default rules (superquadrics off) and with `rule` switched off.
-std::pair<Result, Result> withAndWithout(const sim::ScenePair& s, bool HiddenParams::*rule) {
+std::pair<Result, Result> withAndWithout(const sim::ScenePair& s, bool HiddenParams::*rule,
+                                        double object_share = SegmentationParams().object_share) {
   Params with;
   with.superquadric.enabled = false;
+  with.segmentation.object_share = object_share;
   Params without = with;
   without.segmentation.hidden.*rule = false;
   Pipeline a(with), b(without);
@@ -110,9 +112,10 @@ TEST(HiddenSegments, DoorLeafHiddenByOldLeafIsNovel) {
                 on.object, on.found, off.found);
     EXPECT_EQ(off.found, 0) << "scene " << index;
     EXPECT_GE(on.found, on.object * 6 / 10) << "scene " << index;
-    // A floor return at the leaf's foot, just above the ground band, may join it (measured:
-    // one point in two of these scenes); no more.
-    EXPECT_LE(on.false_points, on.object / 100) << "scene " << index;
+    // Floor returns at the leaf's foot, just above the ground band, may join it: as part of
+    // the new object, those the old leaf hid from the reference too (measured: 12 points of
+    // scene 27's 549, none or one in the others); no more.
+    EXPECT_LE(on.false_points, on.object / 40) << "scene " << index;
   }
 }
 
@@ -157,10 +160,11 @@ TEST(HiddenSegments, RevealedWallsStayNotNovel) {
 TEST(HiddenSegments, MovedObjectReachingIntoTheShadowIsOneSegment) {
   // Viewpoint suite scene 15 (seed 1): a box moved (same pose) partly into the space the old
   // box hid from the reference: ~800 of its ~5,200 points lie where the reference never
-  // looked. With the continuation rule they join the box's segment; without it they are
-  // newly visible. No revealed surface is labelled either way.
+  // looked. With the continuation rule they join the box's segment; without it (and without
+  // object completion, which also takes them as part of a mostly new object) they are newly
+  // visible. No revealed surface is labelled either way.
   const sim::ScenePair s = sim::generateScenePair(sim::viewpointSceneConfig(15, 1));
-  const auto [ra, rb] = withAndWithout(s, &HiddenParams::continuations);
+  const auto [ra, rb] = withAndWithout(s, &HiddenParams::continuations, 1.0);
   const Counts on = count(ra, s.current_labels, 0);
   const Counts off = count(rb, s.current_labels, 0);
   long revealed_novel = 0;
@@ -175,6 +179,11 @@ TEST(HiddenSegments, MovedObjectReachingIntoTheShadowIsOneSegment) {
   EXPECT_EQ(on.false_points, 0);
   EXPECT_EQ(revealed_novel, 0);
   EXPECT_EQ(ra.segments.size(), 1u);
+  // Object completion alone takes them too.
+  const auto [ca, cb] = withAndWithout(s, &HiddenParams::continuations);
+  const Counts completed = count(cb, s.current_labels, 0);
+  EXPECT_GE(completed.found, on.object * 93 / 100);
+  EXPECT_EQ(completed.false_points, 0);
 }
 
 // Continuations grow breadth first from the segment and add at most max_growth times its own
