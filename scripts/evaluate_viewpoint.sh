@@ -10,8 +10,9 @@
 # Writes OUT_DIR/scenes (simulated; reused when size, seed and kind match and simulate_scans
 # is older),
 # OUT_DIR/{ours,baseline}/scene_XXX (outputs and logs), OUT_DIR/{ours,baseline}.json and .md
-# (evaluate), OUT_DIR/viewpoint.md and bench/results/viewpoint.md (the table).
-# NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SKIP_BUILD=1 skips the build;
+# (evaluate), OUT_DIR/viewpoint.md and, unless --no-docs, bench/results/viewpoint.md (the
+# table). NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SUITE_SEEDS="1 2 3" runs one
+# suite per seed and summarises them (below); NOVELTY_SKIP_BUILD=1 skips the build;
 # NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -30,6 +31,26 @@ fi
 for tool in simulate_scans novelty_detect baseline_detect evaluate; do
   [ -x "$BIN/$tool" ] || { log "missing $BIN/$tool: run scripts/build.sh first"; exit 1; }
 done
+
+# Several suite seeds (NOVELTY_SUITE_SEEDS="1 2 3 4 5"): the suite once per seed into
+# OUT_DIR/seed_S (docs untouched), then OUT_DIR/seeds.md and seeds.json for novelty_detect
+# and baseline_seeds.md / .json for the baseline: per scene group the mean over the seeds
+# and the worst seed.
+if [ -n "${NOVELTY_SUITE_SEEDS:-}" ]; then
+  ours=() base=() rc=0
+  for s in $NOVELTY_SUITE_SEEDS; do
+    case "$s" in *[!0-9]*) log "NOVELTY_SUITE_SEEDS: '$s' is not a seed"; exit 2 ;; esac
+    NOVELTY_SUITE_SEEDS= NOVELTY_SUITE_SEED="$s" NOVELTY_SKIP_BUILD=1 \
+      bash "${BASH_SOURCE[0]}" --no-docs "$N" "$OUT/seed_$s" || rc=1
+    ours+=(--seed-scores "$s=$OUT/seed_$s/ours.json")
+    base+=(--seed-scores "$s=$OUT/seed_$s/baseline.json")
+  done
+  "$BIN/evaluate" "${ours[@]}" --markdown "$OUT/seeds.md" --json "$OUT/seeds.json"
+  "$BIN/evaluate" "${base[@]}" --markdown "$OUT/baseline_seeds.md" \
+    --json "$OUT/baseline_seeds.json" > /dev/null
+  log "over seeds $NOVELTY_SUITE_SEEDS: $OUT/seeds.md (baseline: $OUT/baseline_seeds.md)"
+  exit $rc
+fi
 
 start=$(date +%s)
 # Reuse a suite simulated before with the same size, seed and kind by the same simulator.
@@ -118,9 +139,9 @@ text = ("\n".join(rows) + "\n\n"
 open(f"{out}/viewpoint.md", "w").write(text)
 print(text)
 PY
-mkdir -p "$REPO/bench/results"
-cp "$OUT/viewpoint.md" "$REPO/bench/results/viewpoint.md"
 if [ "$DOCS_UPDATE" = 1 ]; then
+  mkdir -p "$REPO/bench/results"
+  cp "$OUT/viewpoint.md" "$REPO/bench/results/viewpoint.md"
   /usr/bin/python3 - "$REPO/docs/evaluation.md" "$OUT/viewpoint.md" <<'PY'
 import sys
 readme, table = sys.argv[1], open(sys.argv[2]).read()
@@ -135,5 +156,9 @@ else:
     print("docs/evaluation.md: no viewpoint-table markers, not updated", file=sys.stderr)
 PY
 fi
-log "table: $OUT/viewpoint.md (copied to bench/results/viewpoint.md)"
+if [ "$DOCS_UPDATE" = 1 ]; then
+  log "table: $OUT/viewpoint.md (copied to bench/results/viewpoint.md)"
+else
+  log "table: $OUT/viewpoint.md"
+fi
 exit $rc

@@ -4,6 +4,7 @@
 # Writes OUT_DIR/scenes (simulated, reused when present), OUT_DIR/results/scene_XXX (the
 # detector's output and stderr.log), OUT_DIR/table.md, table.csv and scores.json.
 # Build first (scripts/build.sh). The suite seed is NOVELTY_SUITE_SEED (default 1);
+# NOVELTY_SUITE_SEEDS="1 2 3 4 5" runs one suite per seed and summarises them (below);
 # NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -22,6 +23,20 @@ case "$N" in '' | *[!0-9]*) log "N must be a positive integer, got '$N'"; exit 2
 for tool in simulate_scans evaluate; do
   [ -x "$BIN/$tool" ] || { log "missing $BIN/$tool: run scripts/build.sh first"; exit 1; }
 done
+# Several suite seeds (NOVELTY_SUITE_SEEDS="1 2 3 4 5"): the suite once per seed into
+# OUT_DIR/seed_S, then OUT_DIR/seeds.md and seeds.json: per scene group the mean over the
+# seeds and the worst seed (evaluate --seed-scores).
+if [ -n "${NOVELTY_SUITE_SEEDS:-}" ]; then
+  args=() rc=0
+  for s in $NOVELTY_SUITE_SEEDS; do
+    case "$s" in *[!0-9]*) log "NOVELTY_SUITE_SEEDS: '$s' is not a seed"; exit 2 ;; esac
+    NOVELTY_SUITE_SEEDS= NOVELTY_SUITE_SEED="$s" bash "${BASH_SOURCE[0]}" "$N" "$OUT/seed_$s" || rc=1
+    args+=(--seed-scores "$s=$OUT/seed_$s/scores.json")
+  done
+  "$BIN/evaluate" "${args[@]}" --markdown "$OUT/seeds.md" --json "$OUT/seeds.json"
+  log "over seeds $NOVELTY_SUITE_SEEDS: $OUT/seeds.md, $OUT/seeds.json"
+  exit $rc
+fi
 
 # Reuse a suite simulated before with the same size and seed.
 if [ -f "$SUITE/suite.json" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&

@@ -3,7 +3,11 @@
 //   evaluate --labels labels.txt --gt gt_labels.txt [--json out.json]
 //   evaluate --suite SUITE_DIR --results RESULTS_DIR [--markdown table.md] [--csv table.csv]
 //            [--json out.json]
+//   evaluate --seed-scores SEED=scores.json [--seed-scores ...] [--markdown seeds.md]
+//            [--json seeds.json]
 //
+// The third form summarises the suite mode's JSON of several suite seeds: per scene group
+// the mean over the seeds and the worst seed (eval/seed_summary.h).
 // For suites whose scenes carry a group and disappearance / newly-visible ground truth
 // (simulate_scans), the suite mode also scores per scene group (viewpoint_evaluation.h).
 #include <nlohmann/json.hpp>
@@ -17,9 +21,11 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/eval/seed_summary.h"
 #include "novelty_detection/eval/shape_evaluation.h"
 #include "novelty_detection/eval/viewpoint_evaluation.h"
 #include "novelty_detection/io/cloud_io.h"
@@ -33,10 +39,13 @@ namespace {
 const char* kUsage =
     "usage: evaluate --labels labels.txt --gt gt_labels.txt [--json out.json]\n"
     "       evaluate --suite SUITE_DIR --results RESULTS_DIR [--markdown table.md]\n"
-    "                [--csv table.csv] [--json out.json]\n";
+    "                [--csv table.csv] [--json out.json]\n"
+    "       evaluate --seed-scores SEED=scores.json [--seed-scores ...]\n"
+    "                [--markdown seeds.md] [--json seeds.json]\n";
 
 struct Options {
   std::string labels, gt, suite, results, json, markdown, csv;
+  std::vector<std::pair<std::string, std::string>> seed_scores;  ///< (seed, scores.json)
 };
 
 Options parse(int argc, char** argv) {
@@ -47,6 +56,16 @@ Options parse(int argc, char** argv) {
     if (f == "--help" || f == "-h") {
       std::cout << kUsage;
       std::exit(0);
+    }
+    if (f == "--seed-scores") {
+      if (i + 1 >= a.size() || a[i + 1].rfind("--", 0) == 0)
+        throw std::invalid_argument("--seed-scores needs SEED=scores.json");
+      const std::string v = a[++i];
+      const std::size_t eq = v.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size())
+        throw std::invalid_argument("--seed-scores takes SEED=scores.json, got '" + v + "'");
+      o.seed_scores.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+      continue;
     }
     std::string* target = f == "--labels"     ? &o.labels
                           : f == "--gt"       ? &o.gt
@@ -63,8 +82,11 @@ Options parse(int argc, char** argv) {
   }
   const bool single = !o.labels.empty() || !o.gt.empty();
   const bool suite = !o.suite.empty() || !o.results.empty();
-  if (single == suite)
-    throw std::invalid_argument("give either --labels and --gt, or --suite and --results");
+  const bool seeds = !o.seed_scores.empty();
+  if (int(single) + int(suite) + int(seeds) != 1)
+    throw std::invalid_argument(
+        "give either --labels and --gt, or --suite and --results, or --seed-scores");
+  if (seeds && !o.csv.empty()) throw std::invalid_argument("--csv is for --suite");
   if (single && (o.labels.empty() || o.gt.empty()))
     throw std::invalid_argument("--labels and --gt go together");
   if (suite && (o.suite.empty() || o.results.empty()))
@@ -267,10 +289,22 @@ int evaluateSuite(const Options& o) {
   return 0;
 }
 
+int summarizeSeedScores(const Options& o) {
+  const SeedSummary summary = summarizeSeeds(o.seed_scores);
+  const std::string md = seedSummaryMarkdown(summary);
+  std::cout << md;
+  if (!o.markdown.empty()) writeText(o.markdown, md);
+  if (!o.json.empty()) writeText(o.json, seedSummaryJson(summary));
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   return novelty_detection::runTool(
       "evaluate", " (see --help)", argc, argv, parse,
-      [](const Options& o) { return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o); });
+      [](const Options& o) {
+        if (!o.seed_scores.empty()) return summarizeSeedScores(o);
+        return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o);
+      });
 }

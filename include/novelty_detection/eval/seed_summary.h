@@ -1,0 +1,43 @@
+// Scores over several suite seeds: one seed's suite says little about the scenes a user
+// will meet, so the suites are run for a list of seeds and each scene group is reported by
+// its mean over the seeds and its worst seed. ROS-free.
+//
+// Input: the `evaluate --suite ... --json` output of each seed (its "groups": scene group,
+// scenes, success_rate, mean_f1, and "summary": objects_found / objects_total, false
+// segments). Means are over seeds (each seed weighs the same); the worst seed is the one with
+// the lowest success rate in the group (ties: lowest F1, then the first listed).
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace novelty_detection {
+
+struct SeedGroupSummary {
+  std::string group;  ///< scene group ("same_pose", ..., "all")
+  int seeds = 0;      ///< seeds that have the group
+  int scenes = 0;     ///< scenes of the group over all those seeds
+  double mean_success = 0.0, mean_f1 = 0.0;
+  std::string worst_seed;  ///< the seed with the lowest success (then F1)
+  double worst_success = 0.0, worst_f1 = 0.0;
+  double min_f1 = 0.0;  ///< the lowest F1 of any seed
+};
+
+struct SeedSummary {
+  std::vector<std::string> seeds;        ///< as given
+  std::vector<SeedGroupSummary> groups;  ///< in first-seen order, "all" last
+  long objects_found = 0, objects_total = 0, false_segments = 0;  ///< summed over seeds
+};
+
+/// Reads each (seed, scores JSON path); throws std::runtime_error naming the file for a
+/// missing or malformed one, std::invalid_argument for no seeds or a repeated seed.
+SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>>& seed_scores);
+
+/// A Markdown table: group, seeds, scenes, mean success, worst seed (its success and F1),
+/// mean F1, lowest F1; then one line of objects found and false segments.
+std::string seedSummaryMarkdown(const SeedSummary& summary);
+/// The same as one JSON object.
+std::string seedSummaryJson(const SeedSummary& summary);
+
+}  // namespace novelty_detection

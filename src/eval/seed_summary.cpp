@@ -1,0 +1,137 @@
+#include "novelty_detection/eval/seed_summary.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <stdexcept>
+
+namespace novelty_detection {
+namespace {
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read scores file '" + path + "'");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error("scores file '" + path + "' is not valid JSON: " + e.what());
+  }
+}
+
+template <class T>
+T field(const nlohmann::json& j, const char* key, const std::string& path) {
+  if (!j.is_object() || !j.contains(key))
+    throw std::runtime_error("scores file '" + path + "' has no '" + key + "'");
+  try {
+    return j.at(key).get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error("scores file '" + path + "': '" + key + "' has the wrong type");
+  }
+}
+
+std::string percent(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f %%", 100.0 * v);
+  return b;
+}
+
+std::string fixed3(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3f", v);
+  return b;
+}
+
+}  // namespace
+
+SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>>& seed_scores) {
+  if (seed_scores.empty()) throw std::invalid_argument("no seeds to summarise");
+  SeedSummary out;
+  std::set<std::string> seen;
+  struct Row {
+    std::string seed;
+    int scenes;
+    double success, f1;
+  };
+  std::vector<std::pair<std::string, std::vector<Row>>> rows;  // per group
+  for (const auto& [seed, path] : seed_scores) {
+    if (!seen.insert(seed).second) throw std::invalid_argument("seed '" + seed + "' given twice");
+    out.seeds.push_back(seed);
+    const nlohmann::json j = readJson(path);
+    const auto groups = field<nlohmann::json>(j, "groups", path);
+    const auto summary = field<nlohmann::json>(j, "summary", path);
+    if (!groups.is_array()) throw std::runtime_error("scores file '" + path + "': 'groups' is not a list");
+    for (const auto& g : groups) {
+      const std::string name = field<std::string>(g, "group", path);
+      auto it = std::find_if(rows.begin(), rows.end(), [&](const auto& r) { return r.first == name; });
+      if (it == rows.end()) it = rows.insert(rows.end(), {name, {}});
+      it->second.push_back({seed, field<int>(g, "scenes", path), field<double>(g, "success_rate", path),
+                            field<double>(g, "mean_f1", path)});
+    }
+    out.objects_found += field<long>(summary, "objects_found", path);
+    out.objects_total += field<long>(summary, "objects_total", path);
+    out.false_segments += field<long>(summary, "false_segments", path);
+  }
+  // "all" last.
+  std::stable_partition(rows.begin(), rows.end(), [](const auto& r) { return r.first != "all"; });
+  for (const auto& [name, list] : rows) {
+    SeedGroupSummary s;
+    s.group = name;
+    s.seeds = static_cast<int>(list.size());
+    const Row* worst = &list.front();
+    s.min_f1 = list.front().f1;
+    for (const Row& r : list) {
+      s.scenes += r.scenes;
+      s.mean_success += r.success / s.seeds;
+      s.mean_f1 += r.f1 / s.seeds;
+      s.min_f1 = std::min(s.min_f1, r.f1);
+      if (r.success < worst->success || (r.success == worst->success && r.f1 < worst->f1)) worst = &r;
+    }
+    s.worst_seed = worst->seed;
+    s.worst_success = worst->success;
+    s.worst_f1 = worst->f1;
+    out.groups.push_back(s);
+  }
+  return out;
+}
+
+std::string seedSummaryMarkdown(const SeedSummary& summary) {
+  std::string seeds;
+  for (const std::string& s : summary.seeds) seeds += (seeds.empty() ? "" : ", ") + s;
+  std::string md = "| scene group | seeds | scenes | mean success | worst seed: success, F1 | mean F1 | lowest F1 |\n"
+                   "|---|---:|---:|---:|---|---:|---:|\n";
+  for (const SeedGroupSummary& g : summary.groups) {
+    md += "| " + g.group + " | " + std::to_string(g.seeds) + " | " + std::to_string(g.scenes) +
+          " | " + percent(g.mean_success) + " | " + g.worst_seed + ": " + percent(g.worst_success) +
+          ", " + fixed3(g.worst_f1) + " | " + fixed3(g.mean_f1) + " | " + fixed3(g.min_f1) + " |\n";
+  }
+  md += "\nSuite seeds " + seeds + ": objects found " + std::to_string(summary.objects_found) +
+        "/" + std::to_string(summary.objects_total) + ", false segments " +
+        std::to_string(summary.false_segments) + ".\n";
+  return md;
+}
+
+std::string seedSummaryJson(const SeedSummary& summary) {
+  nlohmann::json j;
+  j["seeds"] = summary.seeds;
+  j["objects_found"] = summary.objects_found;
+  j["objects_total"] = summary.objects_total;
+  j["false_segments"] = summary.false_segments;
+  j["groups"] = nlohmann::json::array();
+  for (const SeedGroupSummary& g : summary.groups) {
+    j["groups"].push_back({{"group", g.group},
+                           {"seeds", g.seeds},
+                           {"scenes", g.scenes},
+                           {"mean_success", g.mean_success},
+                           {"mean_f1", g.mean_f1},
+                           {"worst_seed", g.worst_seed},
+                           {"worst_success", g.worst_success},
+                           {"worst_f1", g.worst_f1},
+                           {"min_f1", g.min_f1}});
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,95 @@
+// Scores over several suite seeds (eval/seed_summary.h): known means and worst seeds from
+// hand-written scores files, and clear errors for bad ones.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include "novelty_detection/eval/seed_summary.h"
+
+namespace fs = std::filesystem;
+using namespace novelty_detection;
+
+namespace {
+
+fs::path tempDir() {
+  const fs::path d = fs::temp_directory_path() / ("seed_summary_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+/// A scores file of the suite mode: two groups and "all".
+std::string scores(const fs::path& dir, const std::string& name, double same, double offset,
+                   double f1_same, double f1_offset, int found) {
+  const fs::path p = dir / name;
+  std::ofstream(p) << "{\"groups\": ["
+                   << "{\"group\": \"same_pose\", \"scenes\": 20, \"success_rate\": " << same
+                   << ", \"mean_f1\": " << f1_same << "},"
+                   << "{\"group\": \"pose_offset\", \"scenes\": 10, \"success_rate\": " << offset
+                   << ", \"mean_f1\": " << f1_offset << "},"
+                   << "{\"group\": \"all\", \"scenes\": 30, \"success_rate\": "
+                   << (20 * same + 10 * offset) / 30 << ", \"mean_f1\": 0.9}],"
+                   << "\"summary\": {\"objects_found\": " << found
+                   << ", \"objects_total\": 60, \"false_segments\": 1}}";
+  return p.string();
+}
+
+}  // namespace
+
+TEST(SeedSummary, MeansOverSeedsAndTheWorstSeed) {
+  const fs::path dir = tempDir();
+  const SeedSummary s = summarizeSeeds({{"1", scores(dir, "a.json", 1.0, 0.9, 0.97, 0.93, 59)},
+                                        {"2", scores(dir, "b.json", 0.95, 0.7, 0.95, 0.80, 55)},
+                                        {"3", scores(dir, "c.json", 0.95, 0.8, 0.94, 0.85, 57)}});
+  ASSERT_EQ(s.groups.size(), 3u);
+  EXPECT_EQ(s.groups[0].group, "same_pose");
+  EXPECT_EQ(s.groups[2].group, "all");
+  const SeedGroupSummary& same = s.groups[0];
+  EXPECT_EQ(same.seeds, 3);
+  EXPECT_EQ(same.scenes, 60);
+  EXPECT_NEAR(same.mean_success, (1.0 + 0.95 + 0.95) / 3, 1e-12);
+  EXPECT_NEAR(same.mean_f1, (0.97 + 0.95 + 0.94) / 3, 1e-12);
+  // Seeds 2 and 3 tie on success; the lower F1 (seed 3) is the worst.
+  EXPECT_EQ(same.worst_seed, "3");
+  EXPECT_DOUBLE_EQ(same.worst_f1, 0.94);
+  const SeedGroupSummary& offset = s.groups[1];
+  EXPECT_EQ(offset.worst_seed, "2");
+  EXPECT_DOUBLE_EQ(offset.worst_success, 0.7);
+  EXPECT_DOUBLE_EQ(offset.min_f1, 0.80);
+  EXPECT_EQ(s.objects_found, 59 + 55 + 57);
+  EXPECT_EQ(s.objects_total, 180);
+  EXPECT_EQ(s.false_segments, 3);
+  const std::string md = seedSummaryMarkdown(s);
+  EXPECT_NE(md.find("| pose_offset | 3 | 30 | 80.0 % | 2: 70.0 %, 0.800 | 0.860 | 0.800 |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("Suite seeds 1, 2, 3: objects found 171/180"), std::string::npos) << md;
+  EXPECT_NE(seedSummaryJson(s).find("\"worst_seed\": \"2\""), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(SeedSummary, BadInputIsNamed) {
+  const fs::path dir = tempDir();
+  const std::string good = scores(dir, "a.json", 1.0, 0.9, 0.97, 0.93, 59);
+  EXPECT_THROW(summarizeSeeds({}), std::invalid_argument);
+  EXPECT_THROW(summarizeSeeds({{"1", good}, {"1", good}}), std::invalid_argument);
+  auto message = [](const std::vector<std::pair<std::string, std::string>>& in) {
+    try {
+      summarizeSeeds(in);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message({{"1", (dir / "none.json").string()}}).find("cannot read"), std::string::npos);
+  std::ofstream(dir / "bad.json") << "{\"groups\": [";
+  EXPECT_NE(message({{"1", (dir / "bad.json").string()}}).find("not valid JSON"),
+            std::string::npos);
+  std::ofstream(dir / "nosummary.json") << "{\"groups\": []}";
+  EXPECT_NE(message({{"1", (dir / "nosummary.json").string()}}).find("no 'summary'"),
+            std::string::npos);
+  fs::remove_all(dir);
+}
