@@ -21,6 +21,7 @@
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/segmentation/object_completion.h"
 #include "novelty_detection/segmentation/surface_creases.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/shape/superquadric.h"

@@ -7,6 +7,7 @@
 
 #include "novelty_detection/params.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
+#include "novelty_detection/segmentation/object_completion.h"
 
 using namespace novelty_detection;
 
