@@ -70,6 +70,23 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
       it->second.push_back({seed, field<int>(g, "scenes", path), field<double>(g, "success_rate", path),
                             field<double>(g, "mean_f1", path)});
     }
+    if (j.contains("kinds") && j["kinds"].is_array()) {
+      for (const auto& k : j["kinds"]) {
+        const std::string type = field<std::string>(k, "type", path);
+        const int objects = field<int>(k, "objects", path), found = field<int>(k, "found", path);
+        auto it = std::find_if(out.kinds.begin(), out.kinds.end(),
+                               [&](const SeedKindSummary& x) { return x.type == type; });
+        if (it == out.kinds.end()) {
+          it = out.kinds.insert(out.kinds.end(), SeedKindSummary{});
+          it->type = type;
+          it->worst_rate = 2.0;
+        }
+        it->objects += objects;
+        it->found += found;
+        const double rate = objects > 0 ? static_cast<double>(found) / objects : 1.0;
+        if (rate < it->worst_rate) it->worst_rate = rate, it->worst_seed = seed;
+      }
+    }
     out.objects_found += field<long>(summary, "objects_found", path);
     out.objects_total += field<long>(summary, "objects_total", path);
     out.false_segments += field<long>(summary, "false_segments", path);
@@ -110,6 +127,15 @@ std::string seedSummaryMarkdown(const SeedSummary& summary) {
   md += "\nSuite seeds " + seeds + ": objects found " + std::to_string(summary.objects_found) +
         "/" + std::to_string(summary.objects_total) + ", false segments " +
         std::to_string(summary.false_segments) + ".\n";
+  if (!summary.kinds.empty()) {
+    md += "\n| object type | found over the seeds | worst seed: found |\n|---|---:|---|\n";
+    for (const SeedKindSummary& k : summary.kinds) {
+      const double rate = k.objects > 0 ? static_cast<double>(k.found) / k.objects : 0.0;
+      md += "| " + k.type + " | " + percent(rate) + " (" + std::to_string(k.found) + "/" +
+            std::to_string(k.objects) + ") | " + k.worst_seed + ": " + percent(k.worst_rate) +
+            " |\n";
+    }
+  }
   return md;
 }
 
@@ -131,6 +157,13 @@ std::string seedSummaryJson(const SeedSummary& summary) {
                            {"worst_f1", g.worst_f1},
                            {"min_f1", g.min_f1}});
   }
+  j["kinds"] = nlohmann::json::array();
+  for (const SeedKindSummary& k : summary.kinds)
+    j["kinds"].push_back({{"type", k.type},
+                          {"objects", k.objects},
+                          {"found", k.found},
+                          {"worst_seed", k.worst_seed},
+                          {"worst_rate", k.worst_rate}});
   return j.dump(2) + "\n";
 }
 

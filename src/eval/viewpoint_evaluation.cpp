@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -48,6 +49,10 @@ ViewpointSceneScore scoreViewpointScene(const std::string& name, const std::stri
       throw std::runtime_error(json_path.string() + ": not valid JSON (" + e.what() + ")");
     }
     if (j.contains("group")) v.group = j["group"].get<std::string>();
+    if (j.contains("objects") && j["objects"].is_array())
+      for (const auto& o : j["objects"])
+        if (o.contains("id") && o.contains("type"))
+          v.object_types.emplace_back(o["id"].get<int>(), o["type"].get<std::string>());
     if (j.contains("removed_objects"))
       for (const auto& id : j["removed_objects"]) v.removed_ids.push_back(id.get<int>());
   }
@@ -174,6 +179,47 @@ std::string groupsMarkdown(const std::vector<GroupSummary>& groups) {
     o << " |\n";
   }
   return o.str();
+}
+
+std::vector<KindSummary> summarizeKinds(const std::vector<ViewpointSceneScore>& scenes) {
+  std::map<std::string, KindSummary> by_type;
+  for (const ViewpointSceneScore& s : scenes) {
+    std::map<std::string, bool> all_found;
+    for (const auto& [id, type] : s.object_types) {
+      const auto it = std::find_if(s.appearance.objects.begin(), s.appearance.objects.end(),
+                                   [id = id](const ObjectScore& o) { return o.id == id; });
+      if (it == s.appearance.objects.end() || it->points == 0) continue;  // no current points
+      KindSummary& k = by_type[type];
+      k.type = type;
+      ++k.objects;
+      const bool found = s.has_result && it->found;
+      k.found += found;
+      auto [slot, fresh] = all_found.emplace(type, found);
+      if (!fresh) slot->second = slot->second && found;
+    }
+    for (const auto& [type, found] : all_found) {
+      ++by_type[type].scenes;
+      by_type[type].scenes_found += found;
+    }
+  }
+  std::vector<KindSummary> out;
+  for (auto& [type, k] : by_type) out.push_back(k);
+  return out;
+}
+
+std::string kindsMarkdown(const std::vector<KindSummary>& kinds) {
+  std::ostringstream md;
+  md << "| object type | objects found | scenes with all found |\n|---|---:|---:|\n";
+  auto pct = [](int a, int b) {
+    std::ostringstream t;
+    t << std::fixed << std::setprecision(0) << (b ? 100.0 * a / b : 0.0) << " % (" << a << "/"
+      << b << ")";
+    return t.str();
+  };
+  for (const KindSummary& k : kinds)
+    md << "| " << k.type << " | " << pct(k.found, k.objects) << " | "
+       << pct(k.scenes_found, k.scenes) << " |\n";
+  return md.str();
 }
 
 }  // namespace novelty_detection

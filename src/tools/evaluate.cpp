@@ -246,8 +246,18 @@ int evaluateSuite(const Options& o) {
       "\nPer scene group (disappearances: removal scenes whose removed objects were all "
       "found; newly visible: ground-truth newly visible points labelled novel):\n\n" +
       groupsMarkdown(groups);
+  const std::vector<KindSummary> kinds = summarizeKinds(viewpoint);
+  if (!kinds.empty())
+    md += "\nPer object type (found: a segment with IoU >= 0.5):\n\n" + kindsMarkdown(kinds);
   std::cout << md;
   if (!o.markdown.empty()) writeText(o.markdown, md);
+  nlohmann::json kinds_json = nlohmann::json::array();
+  for (const KindSummary& k : kinds)
+    kinds_json.push_back({{"type", k.type},
+                          {"objects", k.objects},
+                          {"found", k.found},
+                          {"scenes", k.scenes},
+                          {"scenes_found", k.scenes_found}});
   nlohmann::json groups_json = nlohmann::json::array();
   for (const auto& g : groups)
     groups_json.push_back({{"group", g.group},
@@ -269,6 +279,7 @@ int evaluateSuite(const Options& o) {
     const nlohmann::json j = {
         {"scenes", scenes},
         {"groups", groups_json},
+        {"kinds", kinds_json},
         {"summary",
          {{"scenes", m.scenes},
           {"successes", m.successes},

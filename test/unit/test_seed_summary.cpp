@@ -9,6 +9,7 @@
 #include <string>
 
 #include "novelty_detection/eval/seed_summary.h"
+#include "novelty_detection/eval/viewpoint_evaluation.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -32,6 +33,8 @@ std::string scores(const fs::path& dir, const std::string& name, double same, do
                    << ", \"mean_f1\": " << f1_offset << "},"
                    << "{\"group\": \"all\", \"scenes\": 30, \"success_rate\": "
                    << (20 * same + 10 * offset) / 30 << ", \"mean_f1\": 0.9}],"
+                   << "\"kinds\": [{\"type\": \"door\", \"objects\": 10, \"found\": " << found - 50
+                   << "}],"
                    << "\"summary\": {\"objects_found\": " << found
                    << ", \"objects_total\": 60, \"false_segments\": 1}}";
   return p.string();
@@ -68,6 +71,13 @@ TEST(SeedSummary, MeansOverSeedsAndTheWorstSeed) {
       << md;
   EXPECT_NE(md.find("Suite seeds 1, 2, 3: objects found 171/180"), std::string::npos) << md;
   EXPECT_NE(seedSummaryJson(s).find("\"worst_seed\": \"2\""), std::string::npos);
+  // Doors: 9 + 5 + 7 of 30 found, the worst seed 2 (5 of 10).
+  ASSERT_EQ(s.kinds.size(), 1u);
+  EXPECT_EQ(s.kinds[0].found, 21);
+  EXPECT_EQ(s.kinds[0].objects, 30);
+  EXPECT_EQ(s.kinds[0].worst_seed, "2");
+  EXPECT_DOUBLE_EQ(s.kinds[0].worst_rate, 0.5);
+  EXPECT_NE(md.find("| door | 70.0 % (21/30) | 2: 50.0 % |"), std::string::npos) << md;
   fs::remove_all(dir);
 }
 
@@ -92,4 +102,35 @@ TEST(SeedSummary, BadInputIsNamed) {
   EXPECT_NE(message({{"1", (dir / "nosummary.json").string()}}).find("no 'summary'"),
             std::string::npos);
   fs::remove_all(dir);
+}
+
+// Per object type within one suite (viewpoint_evaluation.h): objects without current points
+// (removed ones) do not count; a scene counts when every object of the type in it was found;
+// a scene without a result finds nothing.
+TEST(KindSummary, ObjectsAndScenesPerType) {
+  auto object = [](int id, std::size_t points, bool found) {
+    ObjectScore o;
+    o.id = id, o.points = points, o.found = found;
+    return o;
+  };
+  ViewpointSceneScore a;  // two doors, one found; a person found
+  a.has_result = true;
+  a.object_types = {{1, "door"}, {2, "door"}, {3, "person"}};
+  a.appearance.objects = {object(1, 100, true), object(2, 80, false), object(3, 50, true)};
+  ViewpointSceneScore b;  // one door found, a removed box (no current points)
+  b.has_result = true;
+  b.object_types = {{1, "door"}, {2, "box"}};
+  b.appearance.objects = {object(1, 60, true), object(2, 0, false)};
+  ViewpointSceneScore c = b;  // the same, without a result
+  c.has_result = false;
+  const std::vector<KindSummary> k = summarizeKinds({a, b, c});
+  ASSERT_EQ(k.size(), 2u);  // box never had points
+  EXPECT_EQ(k[0].type, "door");
+  EXPECT_EQ(k[0].objects, 4);
+  EXPECT_EQ(k[0].found, 2);
+  EXPECT_EQ(k[0].scenes, 3);
+  EXPECT_EQ(k[0].scenes_found, 1);
+  EXPECT_EQ(k[1].type, "person");
+  EXPECT_EQ(k[1].found, 1);
+  EXPECT_NE(kindsMarkdown(k).find("| door | 50 % (2/4) | 33 % (1/3) |"), std::string::npos);
 }

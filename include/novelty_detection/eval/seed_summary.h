@@ -4,7 +4,7 @@
 //
 // Input: the `evaluate --suite ... --json` output of each seed (its "groups": scene group,
 // scenes, success_rate, mean_f1, and "summary": objects_found / objects_total, false
-// segments). Means are over seeds (each seed weighs the same); the worst seed is the one with
+// segments; "kinds", optional: per object type, objects and found). Means are over seeds (each seed weighs the same); the worst seed is the one with
 // the lowest success rate in the group (ties: lowest F1, then the first listed).
 #pragma once
 
@@ -24,9 +24,18 @@ struct SeedGroupSummary {
   double min_f1 = 0.0;  ///< the lowest F1 of any seed
 };
 
+/// Changed objects of one type found over the seeds (from each file's "kinds", when present).
+struct SeedKindSummary {
+  std::string type;
+  int objects = 0, found = 0;   ///< summed over the seeds
+  std::string worst_seed;       ///< the seed with the lowest share found
+  double worst_rate = 0.0;      ///< that share
+};
+
 struct SeedSummary {
   std::vector<std::string> seeds;        ///< as given
   std::vector<SeedGroupSummary> groups;  ///< in first-seen order, "all" last
+  std::vector<SeedKindSummary> kinds;    ///< in first-seen order
   long objects_found = 0, objects_total = 0, false_segments = 0;  ///< summed over seeds
 };
 
@@ -35,7 +44,8 @@ struct SeedSummary {
 SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>>& seed_scores);
 
 /// A Markdown table: group, seeds, scenes, mean success, worst seed (its success and F1),
-/// mean F1, lowest F1; then one line of objects found and false segments.
+/// mean F1, lowest F1; then one line of objects found and false segments; then, when the
+/// files give them, objects found per type (all seeds, and the worst seed).
 std::string seedSummaryMarkdown(const SeedSummary& summary);
 /// The same as one JSON object.
 std::string seedSummaryJson(const SeedSummary& summary);

@@ -22,6 +22,7 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "novelty_detection/eval/evaluation.h"
@@ -34,6 +35,9 @@ struct ViewpointSceneScore {
   bool has_result = false;        ///< labels.txt was scored
   bool has_appearances = false;   ///< the ground truth has novel current points
   SceneScore appearance;          ///< labels.txt vs gt_labels.txt
+
+  /// scene.json "objects": (id, "type") of each changed object ("box", "door", "person"...).
+  std::vector<std::pair<int, std::string>> object_types;
 
   std::vector<int> removed_ids;  ///< scene.json "removed_objects"
   int removed_found = 0;         ///< of removed_ids
@@ -75,5 +79,18 @@ std::vector<GroupSummary> summarizeGroups(const std::vector<ViewpointSceneScore>
 
 /// Markdown table: one row per group.
 std::string groupsMarkdown(const std::vector<GroupSummary>& groups);
+
+/// Appearances found per object type: an object counts when it has current points and a
+/// segment with IoU >= match_iou (SceneScore::objects); a scene of the type when every
+/// object of that type in it was found.
+struct KindSummary {
+  std::string type;
+  int objects = 0, found = 0;
+  int scenes = 0, scenes_found = 0;
+};
+/// One summary per type, by name; scenes without a scored result count as not found.
+std::vector<KindSummary> summarizeKinds(const std::vector<ViewpointSceneScore>& scenes);
+/// Markdown table: one row per type.
+std::string kindsMarkdown(const std::vector<KindSummary>& kinds);
 
 }  // namespace novelty_detection
