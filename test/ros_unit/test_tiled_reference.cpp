@@ -31,7 +31,9 @@ TEST(TiledReference, AnswersWhileAModelIsBuilt) {
   const auto t0 = std::chrono::steady_clock::now();
   while (!done) {
     EXPECT_EQ(reference.mapSize(), map.size());
-    EXPECT_EQ(reference.cachedModels(), 0u);
+    // The model enters the cache just before pipelineFor returns and `done` is set: a read in
+    // between may see it; never more than the one model.
+    EXPECT_LE(reference.cachedModels(), 1u);
     if (!done) ++answered_during_build;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
