@@ -163,7 +163,7 @@ TEST_F(DetectorTest, ReferenceServicesAndDetect) {
 
   // Saves stay inside ~save_directory (/tmp here): other places, '..' and a symlink that
   // leads out are refused by name; nothing is written there.
-  for (const std::string outside :
+  for (const std::string& outside :
        {std::string("/etc/novelty_map.pcd"), std::string("../novelty_map.pcd"),
         std::string("/tmp/../etc/novelty_map.pcd")}) {
     novelty_detection::SaveReference bad;
