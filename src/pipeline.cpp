@@ -84,8 +84,8 @@ struct Detection {
   std::vector<int> owner_of;    ///< per current point: its novel Gaussian, or -1
   double link_radius = 0.0;
   NearestNeighbourIndex kept_index;  ///< over s.pre.kept, in that order
-  RangeNoise noise;         ///< the sweep's range noise model (preprocess/range_noise.h)
-  RangeImage current_view;  ///< the sweep from its own origin (when needed and known)
+  RangeNoise noise;                  ///< the sweep's range noise model (preprocess/range_noise.h)
+  RangeImage current_view;           ///< the sweep from its own origin (when needed and known)
 };
 
 /// Fine alignment: every later stage sees the sweep in the map frame, in input order.
@@ -421,8 +421,7 @@ Result Pipeline::detect(const Cloud& given) const {
   Cloud cleaned;
   const Cloud& input = usableView(given, &cleaned, &out_of_range);
   // Share of the sweep near the map: the floor of the distance is the one tau has.
-  const double near_m =
-      overlapDistance(ref.extent, params_.segmentation.min_novelty_distance_m);
+  const double near_m = overlapDistance(ref.extent, params_.segmentation.min_novelty_distance_m);
   // The map's points are in the up frame, its extent in the input frame.
   const Eigen::Matrix3f R_up = ref.R_up.cast<float>();
   std::size_t usable = 0, near = 0;

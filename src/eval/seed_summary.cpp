@@ -62,12 +62,15 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
     const nlohmann::json j = readJson(path);
     const auto groups = field<nlohmann::json>(j, "groups", path);
     const auto summary = field<nlohmann::json>(j, "summary", path);
-    if (!groups.is_array()) throw std::runtime_error("scores file '" + path + "': 'groups' is not a list");
+    if (!groups.is_array())
+      throw std::runtime_error("scores file '" + path + "': 'groups' is not a list");
     for (const auto& g : groups) {
       const std::string name = field<std::string>(g, "group", path);
-      auto it = std::find_if(rows.begin(), rows.end(), [&](const auto& r) { return r.first == name; });
+      auto it =
+          std::find_if(rows.begin(), rows.end(), [&](const auto& r) { return r.first == name; });
       if (it == rows.end()) it = rows.insert(rows.end(), {name, {}});
-      it->second.push_back({seed, field<int>(g, "scenes", path), field<double>(g, "success_rate", path),
+      it->second.push_back({seed, field<int>(g, "scenes", path),
+                            field<double>(g, "success_rate", path),
                             field<double>(g, "mean_f1", path)});
     }
     if (j.contains("kinds") && j["kinds"].is_array()) {
@@ -104,7 +107,8 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
       s.mean_success += r.success / s.seeds;
       s.mean_f1 += r.f1 / s.seeds;
       s.min_f1 = std::min(s.min_f1, r.f1);
-      if (r.success < worst->success || (r.success == worst->success && r.f1 < worst->f1)) worst = &r;
+      if (r.success < worst->success || (r.success == worst->success && r.f1 < worst->f1))
+        worst = &r;
     }
     s.worst_seed = worst->seed;
     s.worst_success = worst->success;
@@ -117,8 +121,10 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
 std::string seedSummaryMarkdown(const SeedSummary& summary) {
   std::string seeds;
   for (const std::string& s : summary.seeds) seeds += (seeds.empty() ? "" : ", ") + s;
-  std::string md = "| scene group | seeds | scenes | mean success | worst seed: success, F1 | mean F1 | lowest F1 |\n"
-                   "|---|---:|---:|---:|---|---:|---:|\n";
+  std::string md =
+      "| scene group | seeds | scenes | mean success | worst seed: success, F1 | mean F1 | lowest "
+      "F1 |\n"
+      "|---|---:|---:|---:|---|---:|---:|\n";
   for (const SeedGroupSummary& g : summary.groups) {
     md += "| " + g.group + " | " + std::to_string(g.seeds) + " | " + std::to_string(g.scenes) +
           " | " + percent(g.mean_success) + " | " + g.worst_seed + ": " + percent(g.worst_success) +

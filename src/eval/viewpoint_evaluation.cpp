@@ -212,8 +212,8 @@ std::string kindsMarkdown(const std::vector<KindSummary>& kinds) {
   md << "| object type | objects found | scenes with all found |\n|---|---:|---:|\n";
   auto pct = [](int a, int b) {
     std::ostringstream t;
-    t << std::fixed << std::setprecision(0) << (b ? 100.0 * a / b : 0.0) << " % (" << a << "/"
-      << b << ")";
+    t << std::fixed << std::setprecision(0) << (b ? 100.0 * a / b : 0.0) << " % (" << a << "/" << b
+      << ")";
     return t.str();
   };
   for (const KindSummary& k : kinds)

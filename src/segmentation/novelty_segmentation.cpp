@@ -1,6 +1,5 @@
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
-
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <algorithm>

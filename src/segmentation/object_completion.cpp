@@ -60,8 +60,10 @@ void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius
         stamp[j] = id;
         piece.push_back(j);
         if (crease(j)) {
-          if (crease_from[j] < 0) crease_from[j] = id;
-          else if (crease_from[j] != id) ++contacts[{crease_from[j], id}];
+          if (crease_from[j] < 0)
+            crease_from[j] = id;
+          else if (crease_from[j] != id)
+            ++contacts[{crease_from[j], id}];
         }
       }
       too_large |= piece.size() > cap;

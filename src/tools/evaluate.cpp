@@ -312,10 +312,9 @@ int summarizeSeedScores(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return novelty_detection::runTool(
-      "evaluate", " (see --help)", argc, argv, parse,
-      [](const Options& o) {
-        if (!o.seed_scores.empty()) return summarizeSeedScores(o);
-        return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o);
-      });
+  return novelty_detection::runTool("evaluate", " (see --help)", argc, argv, parse,
+                                    [](const Options& o) {
+                                      if (!o.seed_scores.empty()) return summarizeSeedScores(o);
+                                      return o.suite.empty() ? evaluateOne(o) : evaluateSuite(o);
+                                    });
 }

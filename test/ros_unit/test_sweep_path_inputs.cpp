@@ -104,7 +104,8 @@ TEST(SweepPathInputs, EveryKeptFuzzInputEndsInAResultOrARefusal) {
       if (std::string(target) == "pointcloud2") input.insert(input.begin(), 0);
       SweepOutcome o;
       ASSERT_NO_THROW(o = run(input)) << target << "/" << name;
-      if (o.kind == SweepOutcome::kResult) EXPECT_EQ(o.result.labels.size(), o.sweep.size()) << name;
+      if (o.kind == SweepOutcome::kResult)
+        EXPECT_EQ(o.result.labels.size(), o.sweep.size()) << name;
     }
   }
   EXPECT_GE(files, 10);

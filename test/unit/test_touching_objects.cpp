@@ -119,8 +119,8 @@ TEST(CreaseTest, ValleysAreCreasesPlanesAndRidgesAreNot) {
   // face x = 0 below it.
   for (int i = 0; i <= 50; ++i)
     for (int j = 0; j <= 50; ++j) {
-      c.push_back(PointT(0.02f * i, 0.02f * j, 0.0f));            // floor
-      c.push_back(PointT(1.0f, 0.02f * j, 0.02f * i));            // wall
+      c.push_back(PointT(0.02f * i, 0.02f * j, 0.0f));              // floor
+      c.push_back(PointT(1.0f, 0.02f * j, 0.02f * i));              // wall
       if (i > 0) c.push_back(PointT(0.0f, 0.02f * j, -0.02f * i));  // face below the ridge
     }
   c.width = c.size(), c.height = 1;

@@ -4,8 +4,9 @@
 //
 // Input: the `evaluate --suite ... --json` output of each seed (its "groups": scene group,
 // scenes, success_rate, mean_f1, and "summary": objects_found / objects_total, false
-// segments; "kinds", optional: per object type, objects and found). Means are over seeds (each seed weighs the same); the worst seed is the one with
-// the lowest success rate in the group (ties: lowest F1, then the first listed).
+// segments; "kinds", optional: per object type, objects and found). Means are over seeds (each seed
+// weighs the same); the worst seed is the one with the lowest success rate in the group (ties:
+// lowest F1, then the first listed).
 #pragma once
 
 #include <string>
@@ -27,9 +28,9 @@ struct SeedGroupSummary {
 /// Changed objects of one type found over the seeds (from each file's "kinds", when present).
 struct SeedKindSummary {
   std::string type;
-  int objects = 0, found = 0;   ///< summed over the seeds
-  std::string worst_seed;       ///< the seed with the lowest share found
-  double worst_rate = 0.0;      ///< that share
+  int objects = 0, found = 0;  ///< summed over the seeds
+  std::string worst_seed;      ///< the seed with the lowest share found
+  double worst_rate = 0.0;     ///< that share
 };
 
 struct SeedSummary {

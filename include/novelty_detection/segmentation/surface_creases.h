@@ -14,8 +14,8 @@
 // faces at right angles. Points with fewer than kMinCreaseNeighbours neighbours, or whose
 // neighbours lie along a line (a single scan line: no plane), are never creases; nor are
 // points seen edge-on (|n . (o - p)| below 0.2 of |o - p|), whose side of the plane the
-// noise decides. Without a noise estimate (sigma 0) nothing is a crease. A coarse, noisy sweep (noise comparable to radius_m) shows no creases at
-// all: the rule then changes nothing.
+// noise decides. Without a noise estimate (sigma 0) nothing is a crease. A coarse, noisy sweep
+// (noise comparable to radius_m) shows no creases at all: the rule then changes nothing.
 #pragma once
 
 #include <Eigen/Core>
