@@ -268,7 +268,7 @@ void addHiddenNovelties(Detection& d) {
     d.owner_of[cand.hidden[k]] = cand.hidden_owner[k];
 }
 
-/// Object completion (novelty_segmentation.h) once every rule has added its novel points:
+/// Object completion (object_completion.h) once every rule has added its novel points:
 /// a connected piece of the sweep made mostly of them is a new object and its segments take
 /// all its points (those on a surface the map had, those the reference could not see behind
 /// the old object it replaces, those the posterior turned down); objects that touch are
@@ -280,11 +280,11 @@ void completeNewObjects(Detection& d) {
   std::unique_ptr<CreaseTest> creases;
   if (sensorOriginKnown(current.sensor_origin_) && sp.crease_offset_factor > 0 &&
       d.noise.estimated) {
-    const RangeNoise noise = d.noise;
+    // Points within half a link radius of a crease end a piece: no link jumps the crease.
     creases = std::make_unique<CreaseTest>(
         current, d.s.pre.kept, d.kept_index, current.sensor_origin_.head<3>(),
         sp.crease_radius_factor * d.link_radius, sp.crease_offset_factor,
-        [noise](double r) { return noise.sigmaAt(r); });
+        [&noise = d.noise](double r) { return noise.sigmaAt(r); }, 0.5 * d.link_radius);
   }
   completeObjects(current, d.s.pre.kept, d.link_radius, sp.object_share, {}, &d.pieces,
                   &d.kept_index, creases.get(), sp.min_segment_points);

@@ -210,15 +210,9 @@ std::vector<KindSummary> summarizeKinds(const std::vector<ViewpointSceneScore>& 
 std::string kindsMarkdown(const std::vector<KindSummary>& kinds) {
   std::ostringstream md;
   md << "| object type | objects found | scenes with all found |\n|---|---:|---:|\n";
-  auto pct = [](int a, int b) {
-    std::ostringstream t;
-    t << std::fixed << std::setprecision(0) << (b ? 100.0 * a / b : 0.0) << " % (" << a << "/" << b
-      << ")";
-    return t.str();
-  };
   for (const KindSummary& k : kinds)
-    md << "| " << k.type << " | " << pct(k.found, k.objects) << " | "
-       << pct(k.scenes_found, k.scenes) << " |\n";
+    md << "| " << k.type << " | " << percent(k.found, k.objects) << " | "
+       << percent(k.scenes_found, k.scenes) << " |\n";
   return md.str();
 }
 

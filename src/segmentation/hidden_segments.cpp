@@ -9,31 +9,13 @@
 #include <tuple>
 
 #include "novelty_detection/point_grid.h"
+#include "plane_fit.h"
 
 namespace novelty_detection {
 namespace {
 
-struct Plane {
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d sd = Eigen::Vector3d::Zero();  ///< principal standard deviations, ascending
-};
-
-Plane fitPlane(const Cloud& cloud, const Indices& segment) {
-  Plane p;
-  for (int i : segment) p.centroid += cloud[i].getVector3fMap().cast<double>();
-  p.centroid /= static_cast<double>(segment.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int i : segment) {
-    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - p.centroid;
-    cov += d * d.transpose();
-  }
-  cov /= static_cast<double>(segment.size());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  p.normal = es.eigenvectors().col(0);
-  p.sd = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  return p;
-}
+using detail::fitPlane;
+using detail::Plane;
 
 // Test 3: reference structure around the segment, and how much of it lies on its plane. The
 // segment is queried at one point per voxel of half the ring radius (the ring is the

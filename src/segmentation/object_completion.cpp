@@ -25,7 +25,7 @@ void completeObjects(const Cloud& cloud, const Indices& kept, double link_radius
   }
   if (kept_index->size() != kept.size()) return;  // a non-finite kept point: no positions
   std::vector<int> nn;
-  auto crease = [&](int j) { return creases && creases->nearCrease(j, 0.5 * link_radius_m); };
+  auto crease = [&](int j) { return creases && creases->nearCrease(j); };
   // An object can only qualify while it has at most novel / min_share points.
   const std::size_t cap = static_cast<std::size_t>(static_cast<double>(novel) / min_share) + 1;
   // Per kept position: the last piece that reached it (crease points, which end a piece

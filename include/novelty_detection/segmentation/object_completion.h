@@ -15,7 +15,8 @@ class CreaseTest;  // segmentation/surface_creases.h
 
 /// Object completion: each connected piece of cloud[kept] (the sweep without its ground,
 /// points linked within `link_radius_m`, not across the concave creases `creases` finds
-/// where two objects touch: a point near a crease ends a piece and leads nowhere) that holds
+/// where two objects touch: a point near a crease, CreaseTest::nearCrease, ends a piece and
+/// leads nowhere) that holds
 /// novel points of `segments` and of which those make up at least `min_share` is a new
 /// object: its other points for which `may_join(index)` holds (all when it is empty) join
 /// the segment they are nearest to along the piece (grown breadth first from all its

@@ -36,32 +36,27 @@ constexpr int kMinCreaseNeighbours = 8;
 class CreaseTest {
  public:
   /// `index`: cloud[kept] in that order (outlives the test). `sigma_at(range)`: the noise
-  /// standard deviation at a range from `origin`.
+  /// standard deviation at a range from `origin`. `near_radius_m`: see nearCrease.
   CreaseTest(const Cloud& cloud, const Indices& kept, const NearestNeighbourIndex& index,
              const Eigen::Vector3f& origin, double radius_m, double offset_factor,
-             std::function<double(double)> sigma_at);
+             std::function<double(double)> sigma_at, double near_radius_m = 0.0);
   /// Whether cloud[kept[position]] lies in a concave crease.
   bool inCrease(int position);
-  /// Whether it or one of its neighbours within radius_m does (a crease sampled with gaps
-  /// between its points still parts the surfaces on its two sides). Cached: one radius per
-  /// test.
-  bool nearCrease(int position, double radius_m);
-  /// Points tested so far and found in a crease (for the report).
-  std::size_t tested() const { return tested_; }
-  std::size_t creases() const { return creases_; }
+  /// Whether it or one of its neighbours within near_radius_m does (a crease sampled with
+  /// gaps between its points still parts the surfaces on its two sides).
+  bool nearCrease(int position);
 
  private:
   const Cloud& cloud_;
   const Indices& kept_;
   const NearestNeighbourIndex& index_;
   Eigen::Vector3f origin_;
-  double radius_;
-  double factor_;
+  double radius_, factor_, near_radius_;
   std::function<double(double)> sigma_at_;
-  std::vector<signed char> state_;  ///< -1 not tested, 0 no, 1 crease
+  std::vector<signed char> state_;  ///< inCrease: -1 not tested, 0 no, 1 crease
   std::vector<signed char> near_;   ///< nearCrease: -1 not asked, 0 no, 1 yes
-  std::vector<int> nn_;
-  std::size_t tested_ = 0, creases_ = 0;
+  std::vector<int> nn_, near_nn_;   ///< neighbour ids (scratch of each test)
+  Indices members_;                 ///< their cloud indices (scratch)
 };
 
 }  // namespace novelty_detection
