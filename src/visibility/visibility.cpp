@@ -102,9 +102,12 @@ void RangeImage::build(const Cloud& cloud, const Indices& indices, const Eigen::
       std::sqrt(kTwoPi * std::max(el_span, 1e-6) /
                 static_cast<double>(std::max<std::size_t>(config.max_cells, 1)));
   cell = std::clamp(cell, std::max(min_cell, 1e-5), M_PI / 8);
+  // Whole columns round the circle: a last, narrower column would hold too few returns and
+  // leave the directions about azimuth +-180 deg unknown (a sensor facing -x).
+  cols_ = static_cast<int>(std::ceil(kTwoPi / cell));
+  cell = kTwoPi / cols_;
   cell_rad_ = cell;
   el_min_ = el_lo;
-  cols_ = static_cast<int>(std::ceil(kTwoPi / cell));
   rows_ = static_cast<int>(std::floor(el_span / cell)) + 1;
 
   std::vector<Cell> raw(static_cast<std::size_t>(cols_) * rows_,
@@ -136,21 +139,27 @@ void RangeImage::build(const Cloud& cloud, const Indices& indices, const Eigen::
       return static_cast<std::size_t>(along_rows ? a * cols_ + b : b * cols_ + a);
     };
     std::vector<char> filled(known.size(), 0);
+    // Rows close round the circle of azimuths: a run may cross the +-180 deg seam.
+    const int wrap = along_rows ? inner : 0;
     for (int a = 0; a < outer; ++a) {
-      int last = -1;
+      int first = -1, last = -1;
+      auto fill = [&](int from, int to) {  // the empty cells strictly between, modulo inner
+        if (to - from <= 1 || to - from - 1 > max_run) return;
+        const Cell& lo = cells_[at(a, from % inner)];
+        const Cell& hi = cells_[at(a, to % inner)];
+        const Cell c{std::min(lo.near, hi.near), std::max(lo.far, hi.far)};
+        for (int k = from + 1; k < to; ++k) {
+          cells_[at(a, k % inner)] = c;
+          filled[at(a, k % inner)] = 1;
+        }
+      };
       for (int b = 0; b < inner; ++b) {
         if (!known[at(a, b)]) continue;
-        if (last >= 0 && b - last > 1 && b - last - 1 <= max_run) {
-          const Cell& lo = cells_[at(a, last)];
-          const Cell& hi = cells_[at(a, b)];
-          const Cell c{std::min(lo.near, hi.near), std::max(lo.far, hi.far)};
-          for (int k = last + 1; k < b; ++k) {
-            cells_[at(a, k)] = c;
-            filled[at(a, k)] = 1;
-          }
-        }
+        if (first < 0) first = b;
+        if (last >= 0) fill(last, b);
         last = b;
       }
+      if (wrap > 0 && first >= 0 && last > first) fill(last, first + wrap);
     }
     for (std::size_t i = 0; i < known.size(); ++i) known[i] = known[i] || filled[i];
   };
@@ -162,6 +171,10 @@ void RangeImage::build(const Cloud& cloud, const Indices& indices, const Eigen::
   int& first = rows_first ? fill_cols_ : fill_rows_;
   int& second = rows_first ? fill_rows_ : fill_cols_;
   if (second > 2 * std::max(first, 1)) second = 0;
+  // At least one cell along both axes: the cell is the mean spacing of the returns, so a
+  // regular pattern binned into it leaves isolated empty rows and columns (aliasing).
+  first = std::max(first, 1);
+  second = std::max(second, 1);
   std::vector<char> known = occupied;
   fill_runs(known, rows_first, first);
   fill_runs(known, !rows_first, second);
