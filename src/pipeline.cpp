@@ -451,8 +451,12 @@ Result Pipeline::detect(const Cloud& given) const {
   return result;
 }
 
-void Pipeline::setReference(const Cloud& reference) {
-  reference_ = buildReferenceModel(params_, reference);
+void Pipeline::setReference(const Cloud& reference, const ReferenceViews& views) {
+  reference_ = buildReferenceModel(params_, reference, views);
+}
+
+std::size_t Pipeline::referenceViewpoints() const {
+  return reference_ ? reference_->visibility.views() : 0;
 }
 
 const Cloud& Pipeline::referenceCloud() const {

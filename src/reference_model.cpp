@@ -79,9 +79,30 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
   return s;
 }
 
-std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
-                                                          const Cloud& given) {
+void checkViews(const Cloud& cloud, const ReferenceViews& views) {
+  if (views.empty()) {
+    if (!views.sweep.empty())
+      throw std::invalid_argument("reference views: sweep indices without sweep origins");
+    return;
+  }
+  if (views.sweep.size() != cloud.size()) {
+    throw std::invalid_argument("reference views: " + std::to_string(views.sweep.size()) +
+                                " sweep indices for " + std::to_string(cloud.size()) + " points");
+  }
+  for (const Eigen::Vector3f& o : views.origins)
+    if (!o.allFinite() || !usablePoint(PointT(o.x(), o.y(), o.z())))
+      throw std::invalid_argument("reference views: a sweep origin is not finite");
+  for (std::uint32_t k : views.sweep)
+    if (k >= views.origins.size())
+      throw std::invalid_argument("reference views: a point names sweep " + std::to_string(k) +
+                                  " of " + std::to_string(views.origins.size()));
+}
+
+std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params, const Cloud& given,
+                                                          const ReferenceViews& views) {
+  checkViews(given, views);
   auto model = std::make_shared<ReferenceModel>();
+  model->views = views;
   Cloud cleaned;
   const Cloud& reference = usableView(given, &cleaned, &model->out_of_range);
   requireExtent(reference, "reference");
@@ -92,6 +113,8 @@ std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
     model->R_up = rotationToZUp(model->up.up);
     model->given = reference;
     model->cloud = rotateCloud(reference, model->R_up);
+    const Eigen::Matrix3f Rf = model->R_up.cast<float>();
+    for (Eigen::Vector3f& o : model->views.origins) o = Rf * o;
   } else {
     model->cloud = reference;
   }
@@ -109,9 +132,22 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
   model->gmm = GmmFitter(params.gmm).fit(s.reps);
   model->points.build(reference, s.pre.finite);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
-  const Eigen::Vector3f origin = reference.sensor_origin_.head<3>();
-  if (sensorOriginKnown(reference.sensor_origin_))
-    model->visibility.build(reference, s.pre.finite, origin, rangeImageConfig(params.visibility));
+  const RangeImage::Config image_config = rangeImageConfig(params.visibility);
+  if (!model->views.empty()) {
+    // One image per sweep, of that sweep's finite points.
+    std::vector<Indices> of_sweep(model->views.origins.size());
+    for (int i : s.pre.finite) of_sweep[model->views.sweep[i]].push_back(i);
+    for (std::size_t k = 0; k < of_sweep.size(); ++k) {
+      if (of_sweep[k].empty()) continue;
+      RangeImage image;
+      image.build(reference, of_sweep[k], model->views.origins[k], image_config);
+      model->visibility.add(std::move(image));
+    }
+  } else if (sensorOriginKnown(reference.sensor_origin_)) {
+    RangeImage image;
+    image.build(reference, s.pre.finite, reference.sensor_origin_.head<3>(), image_config);
+    model->visibility.add(std::move(image));
+  }
   model->kept = s.pre.kept;
   if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept);
   if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {

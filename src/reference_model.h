@@ -32,7 +32,8 @@ struct ReferenceModel {
   Gmm gmm;                          ///< Gamma
   NearestNeighbourIndex points;     ///< every finite reference point (ground included)
   NearestNeighbourIndex structure;  ///< the points of `kept`, in that order
-  RangeImage visibility;            ///< free / occupied / unknown seen from its viewpoint
+  ReferenceVisibility visibility;   ///< free / occupied / unknown seen from its viewpoints
+  ReferenceViews views;             ///< per-sweep origins (up frame) when given several
   Indices kept;                     ///< points that may disappear (no ground, no outliers)
   AlignmentReference planes;        ///< map planes for the fine alignment (when enabled)
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
@@ -78,10 +79,16 @@ void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r);
 /// (with `timer`) the stage times are recorded.
 Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer);
 
-/// Everything detect() needs of the reference, computed once. Throws std::invalid_argument
-/// when fewer than 4 usable points remain after pre-processing.
+/// Everything detect() needs of the reference, computed once. `views` (may be empty) says
+/// which sweep each point came from and where it was seen from (types.h). Throws
+/// std::invalid_argument when fewer than 4 usable points remain after pre-processing, or
+/// when `views` does not match the cloud.
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
-                                                          const Cloud& reference);
+                                                          const Cloud& reference,
+                                                          const ReferenceViews& views = {});
+/// Throws std::invalid_argument unless `views` is empty or has one finite origin per sweep
+/// and one valid sweep index per point of `cloud`.
+void checkViews(const Cloud& cloud, const ReferenceViews& views);
 /// The rest of buildReferenceModel, once model->cloud is in the up frame.
 std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     const Params& params, std::shared_ptr<ReferenceModel> model);

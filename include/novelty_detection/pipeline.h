@@ -23,9 +23,14 @@ class Pipeline {
 
   const Params& params() const { return params_; }
 
-  /// Builds and caches the reference model. Non-finite points are ignored. Throws
-  /// std::invalid_argument when fewer than a handful of finite points remain.
-  void setReference(const Cloud& reference);
+  /// Builds and caches the reference model. Non-finite points are ignored. `views` (types.h)
+  /// gives a map merged from several sweeps the origin of each, so that what any of them saw
+  /// through counts as free; without it the cloud's own sensor_origin_ is its one viewpoint
+  /// when known. Throws std::invalid_argument when fewer than a handful of finite points
+  /// remain or when `views` does not match the cloud.
+  void setReference(const Cloud& reference, const ReferenceViews& views = {});
+  /// How many sweep viewpoints the reference's visibility rules use (0: none known).
+  std::size_t referenceViewpoints() const;
   bool hasReference() const { return reference_ != nullptr; }
   /// The reference cloud as given to setReference (for saving it).
   const Cloud& referenceCloud() const;

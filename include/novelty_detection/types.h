@@ -35,6 +35,16 @@ inline void setSensorOrigin(Cloud& cloud, const Eigen::Vector3f& origin) {
   cloud.sensor_origin_ << origin, 1.0f;
 }
 
+/// Where a reference assembled from several sweeps was observed from (a route map): per
+/// sweep its sensor origin in the cloud's frame, and per point of the merged cloud the sweep
+/// it came from. Empty: the cloud is one sweep, seen from its own sensor_origin_ when that
+/// is known (sensorOriginKnown).
+struct ReferenceViews {
+  std::vector<Eigen::Vector3f> origins;  ///< per sweep [m]
+  std::vector<std::uint32_t> sweep;      ///< per point of the cloud: index into origins
+  bool empty() const { return origins.empty(); }
+};
+
 /// One component of a Gaussian mixture (metres, square metres).
 struct Gaussian {
   double weight = 0.0;

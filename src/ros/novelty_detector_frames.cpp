@@ -3,20 +3,20 @@
 // (the sweep path is in novelty_detector_nodelet.cpp, services in novelty_detector_services.cpp).
 #include <tf2_eigen/tf2_eigen.h>
 
-#include <chrono>
 #include <cmath>
 #include <exception>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "novelty_detection/error_text.h"
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/ros_params.h"
+#include "novelty_detection/ros/sensor_pose.h"
 
 namespace novelty_detection {
 
@@ -25,17 +25,23 @@ Params NoveltyDetectorNodelet::currentParams() const {
   return params_;
 }
 
-Cloud NoveltyDetectorNodelet::referenceFromFile(const CloudFile& file) const {
-  Cloud cloud = withViewpoint(file);
+std::string NoveltyDetectorNodelet::setReferenceFrom(const std::string& path) {
+  ReferenceMap map = loadReference(path, referenceLimits());
   const PreprocessParams given = currentParams().preprocess;
-  const std::string how =
-      resolveOrigin(cloud, parseOrigin("preprocess/reference_origin", given.reference_origin),
-                    given.sensor_frame);
-  if (how == "unknown")
-    NODELET_WARN(
-        "the reference file has no viewpoint: visibility and disappearances are off; set "
-        "~preprocess/reference_origin or ~preprocess/sensor_frame");
-  return cloud;
+  std::string how = "sweep viewpoints";
+  if (map.views.empty()) {
+    how =
+        resolveOrigin(map.cloud, parseOrigin("preprocess/reference_origin", given.reference_origin),
+                      given.sensor_frame);
+    if (how == "unknown")
+      NODELET_WARN(
+          "the reference file has no viewpoint: visibility and disappearances are off; set "
+          "~preprocess/reference_origin or ~preprocess/sensor_frame");
+  }
+  reference_->setMap(map.cloud, map.views);
+  const std::size_t sweeps = map.views.empty() ? 1 : map.views.origins.size();
+  return std::to_string(map.cloud.size()) + " points, " + std::to_string(sweeps) +
+         (sweeps == 1 ? " sweep" : " sweeps") + ", viewpoint: " + how;
 }
 
 LoadLimits NoveltyDetectorNodelet::referenceLimits() const {
@@ -46,9 +52,8 @@ LoadLimits NoveltyDetectorNodelet::referenceLimits() const {
 
 void NoveltyDetectorNodelet::loadReferenceFile(const std::string& path) {
   try {
-    const CloudFile file = loadCloudFile(path, referenceLimits());
-    reference_->setMap(referenceFromFile(file));
-    NODELET_INFO("reference map loaded from %s: %zu points", path.c_str(), file.cloud.size());
+    const std::string what = setReferenceFrom(path);
+    NODELET_INFO("reference map loaded from %s: %s", path.c_str(), what.c_str());
   } catch (const std::exception& e) {
     NODELET_ERROR("cannot use reference file: %s", errorText(e).c_str());
     {
@@ -89,17 +94,13 @@ void NoveltyDetectorNodelet::setSensorPose(Cloud& cloud, const std::string& clou
       node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
   if (sensor_frame.empty() || sensor_frame == node_params_.fixed_frame) return;
   // The sweep's own frame was waited for by the tf filter; a separate ~sensor_frame may lag
-  // behind it by a few tf messages: wait for it a little, on the wall clock (a paused
-  // simulated clock must not stop the worker).
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
-  while (!tf_buffer_->canTransform(node_params_.fixed_frame, sensor_frame, stamp) &&
-         std::chrono::steady_clock::now() < give_up)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  // behind it by a few tf messages, or end before the sweep's stamp (a tilting laser's last
+  // line, the end of a bag): sensor_pose.h.
   try {
-    const Eigen::Isometry3d T_fixed_sensor = tf2::transformToEigen(
-        tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp));
-    setSensorOrigin(cloud, T_fixed_sensor.translation().cast<float>());
-    cloud.sensor_orientation_ = Eigen::Quaternionf(T_fixed_sensor.linear().cast<float>());
+    const SensorPose pose = lookupSensorPose(*tf_buffer_, node_params_.fixed_frame, sensor_frame,
+                                             stamp, 0.3, kSensorPoseToleranceS);
+    setSensorOrigin(cloud, pose.T_fixed_sensor.translation().cast<float>());
+    cloud.sensor_orientation_ = Eigen::Quaternionf(pose.T_fixed_sensor.linear().cast<float>());
   } catch (const tf2::TransformException& e) {
     NODELET_WARN_THROTTLE(kWarnPeriodS, "no sensor pose for the sweep: %s", errorText(e).c_str());
   }
@@ -122,9 +123,10 @@ Result NoveltyDetectorNodelet::detect(const Cloud& cloud, const std::string& clo
       node_params_.sensor_frame.empty() ? cloud_frame : node_params_.sensor_frame;
   if (!sensor_frame.empty() && sensor_frame != node_params_.fixed_frame) {
     try {
-      const auto T = tf_buffer_->lookupTransform(node_params_.fixed_frame, sensor_frame, stamp);
-      const Eigen::Vector3d origin(T.transform.translation.x, T.transform.translation.y,
-                                   T.transform.translation.z);
+      const Eigen::Vector3d origin =
+          lookupSensorPose(*tf_buffer_, node_params_.fixed_frame, sensor_frame, stamp, 0.0,
+                           kSensorPoseToleranceS)
+              .T_fixed_sensor.translation();
       const Eigen::Vector3d range = Eigen::Vector3d::Constant(node_params_.sensor_range_m);
       lo = lo.cwiseMax(origin - range);
       hi = hi.cwiseMin(origin + range);

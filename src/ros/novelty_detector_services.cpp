@@ -10,6 +10,7 @@
 
 #include "novelty_detection/error_text.h"
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/reconfigure.h"
@@ -67,11 +68,9 @@ bool NoveltyDetectorNodelet::onSetReference(SetReference::Request& req,
                                             SetReference::Response& res) {
   try {
     if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
-    const CloudFile file = loadCloudFile(req.path, referenceLimits());
-    reference_->setMap(referenceFromFile(file));
+    const std::string what = setReferenceFrom(req.path);
     res.success = true;
-    res.message =
-        "reference set from " + req.path + " (" + std::to_string(file.cloud.size()) + " points)";
+    res.message = "reference set from " + req.path + " (" + what + ")";
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
@@ -88,9 +87,28 @@ bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
     if (!reference_->hasMap()) throw std::runtime_error("there is no reference to save");
     const std::string path = confinedSavePath(node_params_.save_directory, req.path);
     const Cloud map = reference_->map();
-    saveCloudAtomic(path, map, viewpointOf(map));
+    const ReferenceViews views = reference_->views();
+    const bool as_file = path.size() > 4 && (path.compare(path.size() - 4, 4, ".pcd") == 0 ||
+                                             path.compare(path.size() - 4, 4, ".PCD") == 0);
+    if (!views.empty() && !as_file) {
+      // A map of several sweeps: a reference directory keeps each sweep's viewpoint.
+      std::vector<CloudFile> sweeps(views.origins.size());
+      for (std::size_t k = 0; k < sweeps.size(); ++k)
+        sweeps[k].T_frame_sensor.translation() = views.origins[k].cast<double>();
+      for (std::size_t i = 0; i < map.size(); ++i) sweeps[views.sweep[i]].cloud.push_back(map[i]);
+      saveReferenceSweeps(path, sweeps);
+      res.message = "saved " + std::to_string(map.size()) + " points in " +
+                    std::to_string(sweeps.size()) + " sweeps to " + path + "/";
+    } else {
+      if (!views.empty())
+        NODELET_WARN(
+            "saving a map of %zu sweeps as one file keeps no viewpoint; give a "
+            "directory name (no .pcd) to keep them",
+            views.origins.size());
+      saveCloudAtomic(path, map, viewpointOf(map));
+      res.message = "saved " + std::to_string(map.size()) + " points to " + path;
+    }
     res.success = true;
-    res.message = "saved " + std::to_string(map.size()) + " points to " + path;
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

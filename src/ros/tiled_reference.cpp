@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "novelty_detection/preprocess/input_check.h"
 
@@ -27,8 +28,16 @@ TiledReference::TileKey TiledReference::tileOf(double x, double y) const {
   return {index(x), index(y)};
 }
 
-void TiledReference::setMap(const Cloud& map) {
+void TiledReference::setMap(const Cloud& map, const ReferenceViews& views) {
+  if (!views.empty() && views.sweep.size() != map.size()) {
+    throw std::invalid_argument("reference views: " + std::to_string(views.sweep.size()) +
+                                " sweep indices for " + std::to_string(map.size()) + " points");
+  }
+  for (std::uint32_t k : views.sweep)
+    if (k >= views.origins.size())
+      throw std::invalid_argument("reference views: a point names a sweep that does not exist");
   auto copy = std::make_shared<Cloud>(map);
+  auto views_copy = std::make_shared<ReferenceViews>(views);
   std::map<TileKey, Indices> tiles;
   for (std::size_t i = 0; i < copy->size(); ++i) {
     const PointT& p = (*copy)[i];
@@ -41,6 +50,7 @@ void TiledReference::setMap(const Cloud& map) {
   }
   std::lock_guard<std::mutex> lock(mutex_);
   map_ = std::move(copy);
+  views_ = std::move(views_copy);
   tiles_ = std::move(tiles);
   cache_.clear();
   ++generation_;
@@ -63,6 +73,11 @@ Cloud TiledReference::map() const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!map_) throw std::logic_error("no reference map set");
   return *map_;
+}
+
+ReferenceViews TiledReference::views() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return views_ ? *views_ : ReferenceViews{};
 }
 
 std::size_t TiledReference::mapSize() const {
@@ -113,8 +128,19 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
   // The map's viewpoint (if known) feeds the pipeline's free-space check.
   crop.sensor_origin_ = map_->sensor_origin_;
   crop.sensor_orientation_ = map_->sensor_orientation_;
+  ReferenceViews crop_views;  // the sweeps the crop holds points of, renumbered
+  std::vector<std::int64_t> renumbered(views_->origins.size(), -1);
   for (const auto& t : key) {
-    for (int i : tiles_.at(t)) crop.push_back((*map_)[i]);
+    for (int i : tiles_.at(t)) {
+      crop.push_back((*map_)[i]);
+      if (views_->empty()) continue;
+      std::int64_t& k = renumbered[views_->sweep[i]];
+      if (k < 0) {
+        k = static_cast<std::int64_t>(crop_views.origins.size());
+        crop_views.origins.push_back(views_->origins[views_->sweep[i]]);
+      }
+      crop_views.sweep.push_back(static_cast<std::uint32_t>(k));
+    }
   }
   // The model is built without the lock (seconds on a large map): the diagnostics, the
   // services and other sweeps read the map meanwhile. It is cached only when neither the
@@ -124,7 +150,7 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
   const std::uint64_t generation = generation_;
   lock.unlock();
   auto pipeline = std::make_shared<Pipeline>(params);
-  pipeline->setReference(crop);
+  pipeline->setReference(crop, crop_views);
   lock.lock();
   ++models_built_;
   if (generation != generation_) return pipeline;

@@ -25,10 +25,10 @@ struct NoveltyCandidates {
 
 /// What the reference contributes.
 struct CandidateReference {
-  const Gmm* gmm = nullptr;                       ///< Gamma
-  const NearestNeighbourIndex* points = nullptr;  ///< every finite reference point
-  const RangeImage* visibility = nullptr;         ///< empty without a reference viewpoint
-  double explained_log_density = 0.0;             ///< see Pipeline's ReferenceModel
+  const Gmm* gmm = nullptr;                         ///< Gamma
+  const NearestNeighbourIndex* points = nullptr;    ///< every finite reference point
+  const ReferenceVisibility* visibility = nullptr;  ///< empty without a reference viewpoint
+  double explained_log_density = 0.0;               ///< see Pipeline's ReferenceModel
 };
 
 /// Among `kept` (ascending indices into `current`), the points whose posterior mass on the

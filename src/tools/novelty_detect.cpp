@@ -29,6 +29,7 @@
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/output_set.h"
 #include "novelty_detection/io/params_io.h"
+#include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
@@ -40,7 +41,7 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kUsage =
-    "usage: novelty_detect --reference REF.pcd|.ply --current CUR.pcd|.ply --out DIR "
+    "usage: novelty_detect --reference REF.pcd|.ply|REF_DIR --current CUR.pcd|.ply --out DIR "
     "[--config FILE.yaml] [--reference-origin X Y Z] [--current-origin X Y Z] "
     "[--sensor-frame] [--up X Y Z | --up auto]";
 
@@ -48,12 +49,15 @@ constexpr const char* kHelp = R"(Compares a current cloud with a reference map a
 labels.txt, superquadrics.json, report.json, segments.pcd, newly_visible.txt,
 disappeared_labels.txt and disappeared_superquadrics.json.
 
-  --reference FILE         the reference map (.pcd or .ply)
+  --reference FILE|DIR     the reference map (.pcd or .ply), or a directory of *.pcd sweeps
+                           in the map frame, each with VIEWPOINT = the pose it was taken
+                           from (what any of them saw through counts as free space)
   --current FILE           the current sweep (.pcd or .ply)
   --out DIR                output directory (created)
   --config FILE            YAML file overriding any parameter (docs/parameters.md)
   --reference-origin X Y Z the reference sensor's position in the clouds' frame [m]
-                           (overrides preprocess/reference_origin and the PCD VIEWPOINT)
+                           (overrides preprocess/reference_origin and the PCD VIEWPOINT;
+                           not with a directory)
   --current-origin X Y Z   the same for the current sweep (preprocess/current_origin)
   --sensor-frame           each cloud is in its own sensor's frame: its origin (0, 0, 0) is
                            the sensor (preprocess/sensor_frame). An organised cloud
@@ -195,6 +199,7 @@ json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
 /// What the run assumed and could check: the sensor origins, up, the floor.
 struct Assumptions {
   std::string reference_origin, current_origin;  ///< how each origin was found
+  std::size_t reference_sweeps = 1;              ///< sweeps of a reference directory
   bool visibility_checked = false, disappearances_checked = false;
   const nd::Cloud* reference = nullptr;
   const nd::Cloud* current = nullptr;
@@ -263,7 +268,10 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
           {"disappearances_checked", checked_disappearances},
           {"visibility_checked", as.visibility_checked},
           {"sensor_origins",
-           {{"reference", originJson(*as.reference, as.reference_origin)},
+           {{"reference", as.reference_sweeps > 1 ? json{{"position", nullptr},
+                                                         {"from", as.reference_origin},
+                                                         {"sweeps", as.reference_sweeps}}
+                                                  : originJson(*as.reference, as.reference_origin)},
             {"current", originJson(*as.current, as.current_origin)}}},
           {"up", vec(r.up)},
           {"up_source", r.up_source},
@@ -290,7 +298,8 @@ int run(const Args& args) {
   // Both clouds get preprocess/max_points, checked on the file's header before its body.
   nd::LoadLimits limits;
   limits.max_points = static_cast<std::uint64_t>(params.preprocess.max_points);
-  nd::Cloud reference = nd::loadCloud(args.reference, limits);
+  nd::ReferenceMap map = nd::loadReference(args.reference, limits);
+  nd::Cloud& reference = map.cloud;
   nd::Cloud current = nd::loadCloud(args.current, limits);
   Assumptions as;
   // The flags override the configuration (preprocess/reference_origin, current_origin,
@@ -300,14 +309,25 @@ int run(const Args& args) {
                     const std::string& configured) {
     return nd::resolveOrigin(cloud, flag ? flag : nd::parseOrigin(param, configured), sensor_frame);
   };
-  as.reference_origin = origin(reference, args.reference_origin, "preprocess/reference_origin",
-                               params.preprocess.reference_origin);
+  if (!map.views.empty()) {
+    // A reference directory: each sweep's VIEWPOINT is its origin (io/reference_sweeps.h).
+    if (args.reference_origin ||
+        nd::parseOrigin("preprocess/reference_origin", params.preprocess.reference_origin))
+      throw std::invalid_argument(
+          "--reference-origin and preprocess/reference_origin do not apply to a reference "
+          "directory: each sweep's VIEWPOINT is its sensor origin");
+    as.reference_origin = "sweep viewpoints";
+  } else {
+    as.reference_origin = origin(reference, args.reference_origin, "preprocess/reference_origin",
+                                 params.preprocess.reference_origin);
+  }
+  as.reference_sweeps = map.views.empty() ? 1 : map.views.origins.size();
   as.current_origin = origin(current, args.current_origin, "preprocess/current_origin",
                              params.preprocess.current_origin);
   as.reference = &reference;
   as.current = &current;
-  as.visibility_checked =
-      params.segmentation.visibility_check && nd::sensorOriginKnown(reference.sensor_origin_);
+  as.visibility_checked = params.segmentation.visibility_check &&
+                          (!map.views.empty() || nd::sensorOriginKnown(reference.sensor_origin_));
   if (params.segmentation.visibility_check && !as.visibility_checked)
     std::cerr << "novelty_detect: the reference's sensor origin is unknown (no VIEWPOINT): "
                  "the visibility rules are off; give --reference-origin X Y Z or "
@@ -318,18 +338,16 @@ int run(const Args& args) {
   using Clock = std::chrono::steady_clock;
   nd::Pipeline pipeline(params);
   auto t0 = Clock::now();
-  pipeline.setReference(reference);
+  pipeline.setReference(reference, map.views);
   auto t1 = Clock::now();
   nd::Result result;
   try {
     result = pipeline.detect(current);
   } catch (const nd::NoOverlapError& e) {
     // Not "no change": the set holds only a report saying why nothing was compared.
-    out.writeText("report.json", json({{"overlap", e.overlap()},
-                                       {"compared", false},
-                                       {"error", e.what()}})
-                                         .dump(2) +
-                                     "\n");
+    out.writeText(
+        "report.json",
+        json({{"overlap", e.overlap()}, {"compared", false}, {"error", e.what()}}).dump(2) + "\n");
     out.commit();
     std::cerr << "novelty_detect: " << e.what() << "\n";
     return kExitNoOverlap;
@@ -342,8 +360,7 @@ int run(const Args& args) {
   labels.reserve(result.labels.size() * 2);
   for (int l : result.labels) labels += std::to_string(l) + '\n';
   out.writeText("labels.txt", labels);
-  out.writeText("superquadrics.json",
-            superquadricsJson(result.superquadrics).dump(2) + "\n");
+  out.writeText("superquadrics.json", superquadricsJson(result.superquadrics).dump(2) + "\n");
   // Visibility outputs: newly visible flags per current point, disappearance
   // labels per reference point (same convention as labels.txt) and their superquadrics.
   std::string flags;
@@ -355,7 +372,7 @@ int run(const Args& args) {
   for (int l : result.disappeared_labels) gone += std::to_string(l) + '\n';
   out.writeText("disappeared_labels.txt", gone);
   out.writeText("disappeared_superquadrics.json",
-            superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
+                superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's sensor origin.
   as.disappearances_checked =
       params.visibility.disappearances && nd::sensorOriginKnown(current.sensor_origin_);
@@ -369,8 +386,7 @@ int run(const Args& args) {
                                               : "no floor plane found: +z assumed")
               << "\n";
   for (const std::string& w : result.warnings) std::cerr << "novelty_detect: " << w << "\n";
-  out.writeText("report.json",
-            reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
+  out.writeText("report.json", reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
 
   // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
   const nd::Cloud shown =
@@ -390,8 +406,8 @@ int run(const Args& args) {
     // PCL refuses empty clouds: write a valid empty PCD by hand.
     if (!coloured.empty()) throw std::runtime_error("cannot write " + segments);
     out.writeText("segments.pcd",
-              "VERSION .7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
-              "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
+                  "VERSION .7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+                  "WIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n");
   }
   out.commit();
   std::cout << "novelty_detect: " << result.segments.size() << " segment(s), "

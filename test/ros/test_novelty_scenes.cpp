@@ -1,7 +1,8 @@
 // End to end through a real manager: a simulated scene with an inserted object yields a
 // novelty whose points match the ground truth; the unchanged scene yields none; a removed
 // object (the sweep published in its sensor frame, the pose on tf) is published on
-// ~disappeared_cloud with the removed object's reference points.
+// ~disappeared_cloud with the removed object's reference points; a reference directory of
+// two sweeps (set_reference, save_reference) finds an object in one sweep's shadow.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -10,13 +11,17 @@
 #include <unistd.h>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <set>
 #include <tuple>
 
+#include "../unit/route_scene.h"
 #include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/SaveReference.h"
 #include "novelty_detection/SetReference.h"
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/sim/scene.h"
 #include "test_helpers.h"
@@ -64,11 +69,22 @@ class NoveltyScenes : public ::testing::Test {
                                  const Cloud& current, const Eigen::Isometry3d* T_map_sensor) {
     const std::string path = "/tmp/novelty_scene_" + std::to_string(getpid()) + ".pcd";
     saveCloudAtomic(path, reference, T_map_ref);  // with viewpoint
+    setReference(path);
+    std::remove(path.c_str());
+    return publish(current, T_map_sensor);
+  }
+
+  std::string setReference(const std::string& path) {
     SetReference set;
     set.request.path = path;
     EXPECT_TRUE(ros::service::call("/detector/set_reference", set));
     EXPECT_TRUE(set.response.success) << set.response.message;
-    std::remove(path.c_str());
+    return set.response.message;
+  }
+
+  // Publishes `current` (in the map frame, or with T_map_sensor in a sensor frame on tf) and
+  // waits for its result; returns the labels of the labelled cloud.
+  std::vector<std::uint32_t> publish(const Cloud& current, const Eigen::Isometry3d* T_map_sensor) {
     std_msgs::Header h;
     h.frame_id = "map";
     h.stamp = ros::Time::now();
@@ -199,6 +215,46 @@ TEST_F(NoveltyScenes, RemovedBoxIsPublishedAsDisappeared) {
   std::size_t msg_points = 0;
   for (const auto& d : novelties_->disappeared) msg_points += d.points;
   EXPECT_EQ(msg_points, published);
+}
+
+TEST_F(NoveltyScenes, ReferenceDirectoryOfTwoSweeps) {
+  using namespace route_scene;
+  const std::string dir = "/tmp/novelty_route_" + std::to_string(getpid());
+  std::vector<CloudFile> sweeps(2);
+  sweeps[0].cloud = sweepFrom(kA, {kPillar}, false, 1).cloud;
+  sweeps[0].T_frame_sensor.translation() = kA;
+  sweeps[1].cloud = sweepFrom(kB, {kPillar}, true, 2).cloud;
+  sweeps[1].T_frame_sensor.translation() = kB;
+  saveReferenceSweeps(dir, sweeps);
+  const std::string message = setReference(dir);
+  EXPECT_NE(message.find("2 sweeps"), std::string::npos) << message;
+  const synthetic::Scene current = sweepFrom(kC, {kPillar, kObject}, true, 3);
+  Eigen::Isometry3d T_map_sensor = Eigen::Isometry3d::Identity();
+  T_map_sensor.translation() = kC;
+  const auto labels = publish(current.cloud, &T_map_sensor);
+  ASSERT_EQ(labels.size(), current.cloud.size());
+  std::size_t truth = 0, found = 0, hit = 0;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    const bool object = current.label[i] == synthetic::kObject + 1;
+    truth += object;
+    found += labels[i] > 0;
+    hit += object && labels[i] > 0;
+  }
+  std::printf("object in sweep A's shadow: %zu points, %zu found, %zu right\n", truth, found, hit);
+  EXPECT_GE(static_cast<double>(hit) / (truth + found - hit), 0.8) << "IoU";
+
+  // Saved under a directory name, the map keeps its two sweeps and their viewpoints.
+  SaveReference save;
+  save.request.path = "route_" + std::to_string(getpid());
+  ASSERT_TRUE(ros::service::call("/detector/save_reference", save));
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  const std::string saved = save.response.message.substr(save.response.message.rfind(' ') + 1);
+  const ReferenceMap back = loadReference(saved);
+  ASSERT_EQ(back.views.origins.size(), 2u);
+  EXPECT_TRUE(back.views.origins[1].isApprox(kB.cast<float>()));
+  EXPECT_EQ(back.cloud.size(), sweeps[0].cloud.size() + sweeps[1].cloud.size());
+  std::filesystem::remove_all(saved);
+  std::filesystem::remove_all(dir);
 }
 
 int main(int argc, char** argv) {

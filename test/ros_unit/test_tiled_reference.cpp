@@ -38,7 +38,8 @@ TEST(TiledReference, AnswersWhileAModelIsBuilt) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   build.join();
-  const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double build_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_GT(build_s, 0.1) << "the build must take long enough to be observed";
   EXPECT_GE(answered_during_build, 10) << build_s << " s build";
   EXPECT_EQ(reference.cachedModels(), 1u);
@@ -63,4 +64,38 @@ TEST(TiledReference, ReplacingTheMapDropsTheCachedModels) {
   EXPECT_EQ(reference.cachedModels(), 1u);
   reference.setMap(second);
   EXPECT_EQ(reference.cachedModels(), 0u);
+}
+
+TEST(TiledReference, EachCropKeepsTheViewpointsOfItsSweeps) {
+  // Two sweeps of a wall, one at x in [0, 2] seen from (1, -3, 1), one at x in [10, 12]
+  // seen from (11, -3, 1).
+  Cloud map;
+  ReferenceViews views;
+  views.origins = {Eigen::Vector3f(1, -3, 1), Eigen::Vector3f(11, -3, 1)};
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.f, 0.005f);
+  for (std::uint32_t k = 0; k < 2; ++k) {
+    for (int i = 0; i < 40; ++i) {
+      for (int j = 0; j < 40; ++j) {
+        map.push_back(PointT(10.f * k + 0.05f * i, noise(rng), 0.05f * j));
+        views.sweep.push_back(k);
+      }
+    }
+  }
+  TiledReference reference(Params{}, 4.0, 4);
+  ReferenceViews bad = views;
+  bad.sweep.pop_back();
+  EXPECT_THROW(reference.setMap(map, bad), std::invalid_argument);
+  reference.setMap(map, views);
+  EXPECT_EQ(reference.views().origins.size(), 2u);
+  const auto first = reference.pipelineFor(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(3, 1, 3));
+  EXPECT_EQ(first->referenceViewpoints(), 1u);
+  EXPECT_EQ(first->referenceCloud().size(), 1600u);
+  const auto both = reference.pipelineFor(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(13, 1, 3));
+  EXPECT_EQ(both->referenceViewpoints(), 2u);
+  // Without views, a map whose viewpoint is unknown has none.
+  reference.setMap(map);
+  EXPECT_EQ(reference.pipelineFor(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(13, 1, 3))
+                ->referenceViewpoints(),
+            0u);
 }

@@ -47,6 +47,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
 
  private:
   static constexpr double kWarnPeriodS = 5.0;  // throttle period of repeated warnings
+  // The sensor pose may be the latest tf has, this much older than the sweep (sensor_pose.h).
+  static constexpr double kSensorPoseToleranceS = 0.5;
 
   void onInit() override;
   void publishStatus(const std::string& status);
@@ -69,9 +71,11 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   /// frame when it is not the fixed frame) at `stamp`; leaves them when tf cannot tell.
   void setSensorPose(Cloud& cloud, const std::string& cloud_frame, const ros::Time& stamp) const;
   void loadReferenceFile(const std::string& path);
-  /// A reference file's cloud with its sensor origin: preprocess/reference_origin if set,
-  /// else (0, 0, 0) with preprocess/sensor_frame, else the file's viewpoint.
-  Cloud referenceFromFile(const CloudFile& file) const;
+  /// Loads a reference file or directory (io/reference_sweeps.h) as the map; returns what
+  /// was loaded. A file's sensor origin is preprocess/reference_origin if set, else
+  /// (0, 0, 0) with preprocess/sensor_frame, else the file's viewpoint; a directory's are
+  /// its sweeps' viewpoints. Throws what loadReference and TiledReference::setMap throw.
+  std::string setReferenceFrom(const std::string& path);
   /// A reference file may hold what a sweep may: preprocess/max_points, checked on its header.
   LoadLimits referenceLimits() const;
   /// A copy of the parameters (live tuning may change them from another thread).

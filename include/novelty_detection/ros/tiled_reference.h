@@ -29,12 +29,15 @@ class TiledReference {
 
   /// Replaces the map (fixed frame) and drops every cached model. Non-finite points are
   /// ignored. The map's sensor_origin_/sensor_orientation_ (its viewpoint, zero when
-  /// unknown) are passed on to every crop. Throws std::invalid_argument for a map without finite
-  /// points.
-  void setMap(const Cloud& map);
+  /// unknown) are passed on to every crop, and so are `views` (types.h: a map of several
+  /// sweeps), each crop keeping the sweeps it holds points of. Throws std::invalid_argument
+  /// for a map without finite points, or views that do not match it.
+  void setMap(const Cloud& map, const ReferenceViews& views = {});
   bool hasMap() const;
   /// A copy of the map as given (for saving it).
   Cloud map() const;
+  /// A copy of its views (empty for a one-viewpoint map).
+  ReferenceViews views() const;
   std::size_t mapSize() const;
 
   /// The pipeline whose reference is the map cropped to the tiles overlapping the box
@@ -61,6 +64,7 @@ class TiledReference {
 
   mutable std::mutex mutex_;
   std::shared_ptr<const Cloud> map_;
+  std::shared_ptr<const ReferenceViews> views_;
   std::map<TileKey, Indices> tiles_;  // map point indices per tile
   std::list<std::pair<TileSet, std::shared_ptr<const Pipeline>>> cache_;  // front = newest
   std::size_t models_built_ = 0;

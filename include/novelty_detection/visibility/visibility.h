@@ -21,18 +21,21 @@
 //             between lines too wide to fill)
 // Every query is O(1). Building costs O(points + cells).
 //
-// Why a range image rather than an OctoMap: the rule needs free/occupied/unknown along the
-// rays of ONE reference sweep (one sensor origin); a z-buffer answers that exactly, at the
+// A reference made of several sweeps (ReferenceViews) keeps one image per sweep origin
+// (ReferenceVisibility): a point is free when some sweep saw through it.
+//
+// Why range images rather than an OctoMap: the rule needs free/occupied/unknown along the
+// rays each reference sweep actually cast; a z-buffer per sweep answers that exactly, at the
 // sweep's own angular resolution, in ~1 ms for 30k points, where ray-casting a 30k sweep
-// into an octree at a few cm costs hundreds of ms on our 2 cores (the budget for all
-// extra stages is half the detection time). Maps merged from several sweeps would need one
-// image per sweep origin (or an octree); the core takes one origin per cloud.
+// into an octree at a few cm costs hundreds of ms on two cores, and an octree's voxels
+// blur the thin free space beside an object that the rule relies on.
 #pragma once
 
 #include <Eigen/Core>
 
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -89,6 +92,37 @@ class RangeImage {
   std::vector<Cell> cells_;  ///< row-major, after filling
 };
 
+/// What a reference of one or more sweeps observed: one RangeImage per sweep origin. A point
+/// is kFree when some sweep saw through it; otherwise kOccupied when some sweep's returns
+/// end about there; otherwise kOccluded when some sweep saw something in front of it;
+/// otherwise kUnknown. With one sweep this is that sweep's image.
+class ReferenceVisibility {
+ public:
+  /// Adds one sweep's image; empty images (too few points) are not kept.
+  void add(RangeImage image) {
+    if (!image.empty()) images_.push_back(std::move(image));
+  }
+  bool empty() const { return images_.empty(); }
+  std::size_t views() const { return images_.size(); }
+  const std::vector<RangeImage>& images() const { return images_; }
+
+  Visibility classify(const Eigen::Vector3f& p, double margin_m,
+                      RangeImage::Neighbourhood mode = RangeImage::Neighbourhood::kWindow) const {
+    Visibility best = Visibility::kUnknown;
+    for (const RangeImage& image : images_) {
+      const Visibility v = image.classify(p, margin_m, mode);
+      if (v == Visibility::kFree) return v;
+      if (v == Visibility::kOccupied ||
+          (v == Visibility::kOccluded && best == Visibility::kUnknown))
+        best = v;
+    }
+    return best;
+  }
+
+ private:
+  std::vector<RangeImage> images_;
+};
+
 /// The range image settings of the visibility parameter group.
 inline RangeImage::Config rangeImageConfig(const VisibilityParams& p) {
   RangeImage::Config c;
@@ -123,8 +157,8 @@ inline bool novelCandidate(bool have_visibility, Visibility v, bool explained,
 /// `reference`, with margin `margin_m`). All zeros when `reference` is empty.
 template <class DistanceFn>
 std::vector<std::uint8_t> newlyVisible(const Cloud& current, const std::vector<int>& labels,
-                                       const RangeImage& reference, double margin_m, double tau_m,
-                                       DistanceFn&& distance_to_map) {
+                                       const ReferenceVisibility& reference, double margin_m,
+                                       double tau_m, DistanceFn&& distance_to_map) {
   std::vector<std::uint8_t> out(current.size(), 0);
   if (reference.empty()) return out;
   for (std::size_t i = 0; i < current.size(); ++i) {
