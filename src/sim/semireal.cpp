@@ -294,10 +294,14 @@ void castInto(const Cloud& scan, const Eigen::Vector3f& sensor, const ObjectMode
   if (obj.empty()) return;
   const double cell = 2.0 * hit_radius / r_min;
   std::unordered_map<Key, std::vector<std::size_t>, KeyHash> buckets;
+  // A beam almost at right angles to e0 projects far out; clamped before the cast (such a
+  // cell holds no object point, whose projections are bounded).
+  auto index = [&](double u) {
+    return static_cast<int>(std::clamp(std::floor(u / cell), -1e9, 1e9));
+  };
   auto cellOf = [&](const Vec3& v) {
     const double t0 = v.dot(e0);
-    return Key{static_cast<int>(std::floor(v.dot(e1) / t0 / cell)),
-               static_cast<int>(std::floor(v.dot(e2) / t0 / cell)), 0};
+    return Key{index(v.dot(e1) / t0), index(v.dot(e2) / t0), 0};
   };
   for (std::size_t i = 0; i < obj.size(); ++i) buckets[cellOf(obj[i])].push_back(i);
   for (std::size_t i = 0; i < scan.size(); ++i) {
