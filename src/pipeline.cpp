@@ -448,6 +448,9 @@ Result Pipeline::detect(const Cloud& given) const {
   result.up = ref.up.up;
   result.up_source = ref.up.source;
   result.overlap = overlap;
+  result.visibility_checked = params_.segmentation.visibility_check && !ref.visibility.empty();
+  result.disappearances_checked =
+      params_.visibility.disappearances && sensorOriginKnown(input.sensor_origin_);
   return result;
 }
 

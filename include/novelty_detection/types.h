@@ -154,6 +154,11 @@ struct Result {
   /// was removed as ground.
   bool floor_found = false;
   Eigen::Vector4d floor = Eigen::Vector4d::Zero();
+  /// Whether the visibility rules ran (segmentation/visibility_check and a known reference
+  /// viewpoint) and whether disappearances were looked for (visibility/disappearances and a
+  /// known sensor origin of the sweep): false means "not checked", never "none".
+  bool visibility_checked = false;
+  bool disappearances_checked = false;
   /// The novelty distance tau used [m], and the noise model that floors it: sigma of the
   /// sweep's surfaces at the median range of its points [m], the model's name
   /// ("constant", "linear in range", "quadratic in range"; empty when too few patches).

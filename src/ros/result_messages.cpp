@@ -94,6 +94,8 @@ NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header
   std::uint32_t nv = 0;
   for (auto f : result.newly_visible) nv += f != 0;
   out.newly_visible_points = nv;
+  out.visibility_checked = result.visibility_checked;
+  out.disappearances_checked = result.disappearances_checked;
   for (const auto& seg : result.disappeared_segments)
     out.disappeared.push_back(toNoveltyMsg(seg, result.disappeared_superquadrics));
   return out;

@@ -374,8 +374,7 @@ int run(const Args& args) {
   out.writeText("disappeared_superquadrics.json",
                 superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's sensor origin.
-  as.disappearances_checked =
-      params.visibility.disappearances && nd::sensorOriginKnown(current.sensor_origin_);
+  as.disappearances_checked = result.disappearances_checked;
   if (params.visibility.disappearances && !as.disappearances_checked)
     std::cerr << "novelty_detect: the current cloud's sensor origin is unknown (no VIEWPOINT): "
                  "disappearances not checked; give --current-origin X Y Z or --sensor-frame\n";

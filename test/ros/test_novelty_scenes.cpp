@@ -149,6 +149,10 @@ TEST_F(NoveltyScenes, InsertedBoxIsFoundWithItsPoints) {
   std::lock_guard<std::mutex> lock(mutex_);
   ASSERT_TRUE(novelties_);
   ASSERT_GE(novelties_->novelties.size(), 1u);
+  // A sweep in the map frame without ~sensor_frame: its pose is unknown, and the message
+  // says disappearances were not looked for (rather than "none").
+  EXPECT_TRUE(novelties_->visibility_checked);
+  EXPECT_FALSE(novelties_->disappearances_checked);
   std::size_t msg_points = 0;
   for (const auto& n : novelties_->novelties) msg_points += n.points;
   EXPECT_EQ(msg_points, found);
@@ -242,6 +246,12 @@ TEST_F(NoveltyScenes, ReferenceDirectoryOfTwoSweeps) {
   }
   std::printf("object in sweep A's shadow: %zu points, %zu found, %zu right\n", truth, found, hit);
   EXPECT_GE(static_cast<double>(hit) / (truth + found - hit), 0.8) << "IoU";
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSERT_TRUE(novelties_);
+    EXPECT_TRUE(novelties_->visibility_checked);
+    EXPECT_TRUE(novelties_->disappearances_checked);  // the sweep's pose is on tf
+  }
 
   // Saved under a directory name, the map keeps its two sweeps and their viewpoints.
   SaveReference save;

@@ -32,6 +32,16 @@ int main(int argc, char** argv) {
                 sq.pose.position.z, sq.euler[0], sq.euler[1], sq.euler[2], sq.points, sq.residual);
           }
         }
+        if (m->disappearances_checked) {
+          std::printf("  disappearances: %zu\n", m->disappeared.size());
+          for (const auto& d : m->disappeared)
+            std::printf("  disappeared %d: %u reference points, centroid (%.2f, %.2f, %.2f) m\n",
+                        d.id, d.points, d.centroid.x, d.centroid.y, d.centroid.z);
+        } else {
+          std::printf("  disappearances: not checked (no sensor pose for the sweep)\n");
+        }
+        if (!m->visibility_checked)
+          std::printf("  visibility rules: off (the reference has no viewpoint)\n");
         std::fflush(stdout);
       });
   const ros::WallTime start = ros::WallTime::now();
