@@ -10,7 +10,8 @@
 //                   merged (its VIEWPOINT the sensor pose when there is one sweep)
 //   ~voxel_size_m   keeps one point per voxel of this edge in each sweep (default 0: all)
 //   ~max_sweeps     saves after this many sweeps (default 0: when they stop)
-//   ~idle_timeout   saves this many wall seconds after the last sweep (default 5)
+//   ~idle_timeout   saves this many wall seconds after the last sweep, kept or skipped
+//                   (default 5)
 //   ~pose_tolerance_s  the sensor pose may be the latest tf has, this much older than
 //                   the sweep (default 0.5; a tilting laser's last line)
 //
@@ -114,7 +115,7 @@ int main(int argc, char** argv) {
   std::mutex mutex;
   std::vector<nd::CloudFile> sweeps;
   std::size_t points = 0, skipped = 0;
-  ros::WallTime last_sweep;
+  ros::WallTime last_sweep;  // the last sweep received, kept or skipped
   tf2_ros::MessageFilter<sensor_msgs::PointCloud2> filter(buffer, fixed_frame, 20, nh);
   filter.registerCallback([&](const sensor_msgs::PointCloud2::ConstPtr& msg) {
     try {
@@ -155,6 +156,7 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);
       ++skipped;
+      last_sweep = ros::WallTime::now();
       ROS_ERROR("build_reference: sweep skipped: %s", nd::errorText(e).c_str());
     }
   });
@@ -168,7 +170,9 @@ int main(int argc, char** argv) {
     ros::WallDuration(0.1).sleep();
     std::lock_guard<std::mutex> lock(mutex);
     if (max_sweeps > 0 && static_cast<int>(sweeps.size()) >= max_sweeps) break;
-    if (!sweeps.empty() && (ros::WallTime::now() - last_sweep).toSec() > idle_timeout) break;
+    if ((!sweeps.empty() || skipped > 0) &&
+        (ros::WallTime::now() - last_sweep).toSec() > idle_timeout)
+      break;
   }
   spinner.stop();
   std::lock_guard<std::mutex> lock(mutex);

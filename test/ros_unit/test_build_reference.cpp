@@ -1,0 +1,125 @@
+// The reference workflow end to end, as a user runs it: a simulated bag (tilting laser
+// lines, tf and sweeps) played through build_reference.launch, the saved reference
+// directory used by novelty_detect, scored against the scene's ground truth; and a save
+// that cannot succeed ends the node with a FATAL line.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/io/reference_sweeps.h"
+
+namespace fs = std::filesystem;
+using namespace novelty_detection;
+
+namespace {
+
+const fs::path kBin = NOVELTY_BIN_DIR;
+
+struct ProcessRun {
+  int code = 0;
+  std::string out;
+};
+
+ProcessRun run(const std::string& cmd) {
+  ProcessRun r;
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p)) r.out += buf;
+  const int status = ::pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+/// roslaunch on a master of its own (a port of this process), so that tests running at the
+/// same time do not share one.
+std::string roslaunch(const std::string& args) {
+  const std::string port = std::to_string(20000 + ::getpid() % 20000);
+  return "ROS_MASTER_URI=http://localhost:" + port + " timeout 240 roslaunch -p " + port +
+         " novelty_detection build_reference.launch " + args;
+}
+
+std::vector<int> readLabels(const fs::path& path) {
+  std::vector<int> v;
+  std::ifstream in(path);
+  for (int x; in >> x;) v.push_back(x);
+  return v;
+}
+
+class BuildReference : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("novelty_build_ref_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const ProcessRun sim = run((kBin / "simulate_scans").string() + " --out " +
+                               (dir_ / "scene").string() + " --seed 1 --novelties 2");
+    ASSERT_EQ(sim.code, 0) << sim.out;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(BuildReference, BagToReferenceDirectoryToDetection) {
+  const fs::path ref = dir_ / "route";
+  const ProcessRun launch =
+      run(roslaunch("bag:=" + (dir_ / "scene" / "scans.bag").string() +
+                    " sensor_frame:=laser max_sweeps:=1 output:=" + ref.string()));
+  ASSERT_NE(launch.out.find("saved 1 sweeps"), std::string::npos) << launch.out;
+  const ReferenceMap map = loadReference(ref.string());
+  ASSERT_EQ(map.views.origins.size(), 1u);
+  // Every point of the reference sweep is kept, and its viewpoint is the scene's.
+  const CloudFile truth = loadCloudFile((dir_ / "scene" / "ref.pcd").string());
+  EXPECT_EQ(map.cloud.size(), truth.cloud.size());
+  EXPECT_LT((map.views.origins[0].cast<double>() - truth.T_frame_sensor.translation()).norm(),
+            1e-3);
+
+  const ProcessRun detect =
+      run((kBin / "novelty_detect").string() + " --reference " + ref.string() + " --current " +
+          (dir_ / "scene" / "cur.pcd").string() + " --out " + (dir_ / "out").string());
+  ASSERT_EQ(detect.code, 0) << detect.out;
+  const std::vector<int> labels = readLabels(dir_ / "out" / "labels.txt");
+  const std::vector<int> gt = readLabels(dir_ / "scene" / "gt_labels.txt");
+  ASSERT_EQ(labels.size(), gt.size());
+  std::size_t tp = 0, fp = 0, fn = 0;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    tp += labels[i] > 0 && gt[i] > 0;
+    fp += labels[i] > 0 && gt[i] <= 0;
+    fn += labels[i] <= 0 && gt[i] > 0;
+  }
+  const double f1 = 2.0 * tp / std::max<std::size_t>(1, 2 * tp + fp + fn);
+  std::printf("reference from the bag: F1 %.3f (%zu tp, %zu fp, %zu fn)\n", f1, tp, fp, fn);
+  EXPECT_GE(f1, 0.8);
+  std::ifstream in(dir_ / "out" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_TRUE(report["visibility_checked"].get<bool>());
+  EXPECT_TRUE(report["disappearances_checked"].get<bool>());
+  EXPECT_EQ(report["num_segments"].get<int>(), 2);
+}
+
+TEST_F(BuildReference, AFailedSaveIsFatal) {
+  // A file where the output's parent directory should be.
+  std::ofstream(dir_ / "blocker") << "x";
+  const ProcessRun launch = run(roslaunch(
+      "bag:=" + (dir_ / "scene" / "scans.bag").string() +
+      " sensor_frame:=laser max_sweeps:=1 output:=" + (dir_ / "blocker" / "map").string()));
+  EXPECT_NE(launch.out.find("the reference was NOT saved"), std::string::npos) << launch.out;
+  EXPECT_NE(launch.out.find("exit code 1"), std::string::npos) << launch.out;
+  // A sweep in the map frame without a sensor frame has no pose: refused by name.
+  const ProcessRun no_pose = run(roslaunch("bag:=" + (dir_ / "scene" / "scans.bag").string() +
+                                           " max_sweeps:=1 output:=" + (dir_ / "r2").string()));
+  EXPECT_NE(no_pose.out.find("~sensor_frame is not set"), std::string::npos) << no_pose.out;
+  EXPECT_FALSE(fs::exists(dir_ / "r2"));
+}
