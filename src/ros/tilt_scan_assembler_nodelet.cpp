@@ -1,5 +1,5 @@
-#include "novelty_detection/error_text.h"
 #include "novelty_detection/ros/tilt_scan_assembler_nodelet.h"
+#include "novelty_detection/error_text.h"
 
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -13,6 +13,8 @@
 namespace novelty_detection {
 namespace {
 constexpr double kWarnPeriodS = 5.0;
+// A tilt step this many times the sweep's mean step is a fly-back, not a slow reversal.
+constexpr double kFlyBackFactor = 5.0;
 
 // Pitch of a rotation (Z-Y-X convention: rotation about the parent's y axis).
 double pitchOf(const Eigen::Matrix3d& R) {
@@ -68,6 +70,8 @@ void TiltScanAssemblerNodelet::onInit() {
           publishSweep();
           have_pitch_ = false;
           direction_ = 0;
+          typical_step_ = 0.0;
+          steps_ = 0;
         }
       });
   NODELET_INFO("tilt scan assembler: %s -> %s in '%s'", scan_sub_.getTopic().c_str(),
@@ -106,12 +110,26 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
       const double step = pitch - last_pitch_;
       if (std::abs(step) > min_tilt_step_rad_) {
         const int dir = step > 0 ? 1 : -1;
-        if (direction_ != 0 && dir != direction_) close = true;
-        direction_ = dir;
+        if (steps_ >= 2 && std::abs(step) > kFlyBackFactor * typical_step_) {
+          // A fly-back: this line starts the next sweep, whose direction is not known yet.
+          close = true;
+          direction_ = 0;
+          typical_step_ = 0.0;
+          steps_ = 0;
+        } else {
+          if (direction_ != 0 && dir != direction_) close = true;
+          direction_ = dir;
+          typical_step_ = (typical_step_ * steps_ + std::abs(step)) / (steps_ + 1);
+          ++steps_;
+        }
       }
     }
     last_pitch_ = pitch;
     have_pitch_ = true;
+    if (close && direction_ != 0) {  // a reversal: the running step mean starts again
+      typical_step_ = 0.0;
+      steps_ = 0;
+    }
     if (close) publishSweep();
     if (lines_ == 0) sweep_start_ = stamp;
 

@@ -21,7 +21,9 @@ namespace novelty_detection {
 /// ~sweep (PointCloud2, fixed frame) when the tilt direction reverses (the pitch of the
 /// laser frame relative to ~tilt_parent_frame changes sign of motion) or when the sweep
 /// lasts longer than ~max_sweep_duration seconds, or when no line arrived for ~idle_timeout
-/// wall seconds (the laser stopped, or a bag ended).
+/// wall seconds (the laser stopped, or a bag ended). A step of the tilt several times the
+/// sweep's typical step is a fly-back (a sawtooth tilt returning to its start): it closes
+/// the sweep and the next sweep's direction is learnt afresh, so its first line is kept.
 class TiltScanAssemblerNodelet : public nodelet::Nodelet {
  public:
   TiltScanAssemblerNodelet();
@@ -52,7 +54,9 @@ class TiltScanAssemblerNodelet : public nodelet::Nodelet {
   int lines_ = 0;
   ros::Time sweep_start_, last_stamp_;
   double last_pitch_ = 0.0;
-  int direction_ = 0;  // +1 tilting up, -1 down, 0 unknown
+  int direction_ = 0;          // +1 tilting up, -1 down, 0 unknown
+  double typical_step_ = 0.0;  // running mean of |pitch step| in this sweep [rad]
+  int steps_ = 0;              // steps in that mean
   bool have_pitch_ = false;
 };
 
