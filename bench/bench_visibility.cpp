@@ -94,13 +94,15 @@ void BM_NewlyVisible(benchmark::State& state) {
   RangeImage image;
   image.build(r.reference, {}, r.reference.sensor_origin_.head<3>(),
               rangeImageConfig(VisibilityParams()));
+  ReferenceVisibility views;
+  views.add(image);
   NearestNeighbourIndex map;
   map.build(r.reference);
   const std::vector<int> labels(r.current.size(), 0);
   const double tau = 0.1;
   std::vector<std::uint8_t> nv;
   for (auto _ : state)
-    nv = newlyVisible(r.current, labels, image, tau, tau,
+    nv = newlyVisible(r.current, labels, views, tau, tau,
                       [&map](const Eigen::Vector3f& p) { return map.distance(p); });
   addScores(state, "", nv, r.hidden);
   state.counters["points"] = static_cast<double>(r.current.size());
