@@ -79,28 +79,9 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
   return s;
 }
 
-void checkViews(const Cloud& cloud, const ReferenceViews& views) {
-  if (views.empty()) {
-    if (!views.sweep.empty())
-      throw std::invalid_argument("reference views: sweep indices without sweep origins");
-    return;
-  }
-  if (views.sweep.size() != cloud.size()) {
-    throw std::invalid_argument("reference views: " + std::to_string(views.sweep.size()) +
-                                " sweep indices for " + std::to_string(cloud.size()) + " points");
-  }
-  for (const Eigen::Vector3f& o : views.origins)
-    if (!o.allFinite() || !usablePoint(PointT(o.x(), o.y(), o.z())))
-      throw std::invalid_argument("reference views: a sweep origin is not finite");
-  for (std::uint32_t k : views.sweep)
-    if (k >= views.origins.size())
-      throw std::invalid_argument("reference views: a point names sweep " + std::to_string(k) +
-                                  " of " + std::to_string(views.origins.size()));
-}
-
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params, const Cloud& given,
                                                           const ReferenceViews& views) {
-  checkViews(given, views);
+  checkReferenceViews(given, views);
   auto model = std::make_shared<ReferenceModel>();
   model->views = views;
   Cloud cleaned;

@@ -86,9 +86,6 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
                                                           const Cloud& reference,
                                                           const ReferenceViews& views = {});
-/// Throws std::invalid_argument unless `views` is empty or has one finite origin per sweep
-/// and one valid sweep index per point of `cloud`.
-void checkViews(const Cloud& cloud, const ReferenceViews& views);
 /// The rest of buildReferenceModel, once model->cloud is in the up frame.
 std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     const Params& params, std::shared_ptr<ReferenceModel> model);

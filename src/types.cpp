@@ -1,9 +1,32 @@
 #include "novelty_detection/types.h"
 
+#include "novelty_detection/preprocess/input_check.h"
+
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace novelty_detection {
+
+void checkReferenceViews(const Cloud& cloud, const ReferenceViews& views) {
+  if (views.empty()) {
+    if (!views.sweep.empty())
+      throw std::invalid_argument("reference views: sweep indices without sweep origins");
+    return;
+  }
+  if (views.sweep.size() != cloud.size()) {
+    throw std::invalid_argument("reference views: " + std::to_string(views.sweep.size()) +
+                                " sweep indices for " + std::to_string(cloud.size()) + " points");
+  }
+  for (const Eigen::Vector3f& o : views.origins)
+    if (!o.allFinite() || !usablePoint(PointT(o.x(), o.y(), o.z())))
+      throw std::invalid_argument("reference views: a sweep origin is not finite");
+  for (std::uint32_t k : views.sweep)
+    if (k >= views.origins.size())
+      throw std::invalid_argument("reference views: a point names sweep " + std::to_string(k) +
+                                  " of " + std::to_string(views.origins.size()));
+}
 
 Eigen::Matrix3d Superquadric::rotation() const {
   // Z-Y-Z Euler angles (phi, theta, psi).

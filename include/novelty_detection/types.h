@@ -45,6 +45,10 @@ struct ReferenceViews {
   bool empty() const { return origins.empty(); }
 };
 
+/// Throws std::invalid_argument unless `views` is empty or has one finite origin per sweep
+/// and one valid sweep index per point of `cloud`.
+void checkReferenceViews(const Cloud& cloud, const ReferenceViews& views);
+
 /// One component of a Gaussian mixture (metres, square metres).
 struct Gaussian {
   double weight = 0.0;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -16,14 +17,6 @@
 namespace novelty_detection {
 namespace fs = std::filesystem;
 namespace {
-
-bool hasPcdExtension(const std::string& name) {
-  if (name.size() < 5) return false;
-  std::string ext = name.substr(name.size() - 4);
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".pcd";
-}
 
 /// The *.pcd entries of `dir`, sorted by name (hidden files skipped).
 std::vector<std::string> sweepFiles(const std::string& dir) {
@@ -63,6 +56,14 @@ void syncDirectory(const std::string& dir) {
 }
 
 }  // namespace
+
+bool hasPcdExtension(const std::string& path) {
+  if (path.size() < 5) return false;
+  std::string ext = path.substr(path.size() - 4);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".pcd";
+}
 
 bool isDirectory(const std::string& path) {
   struct stat st {};

@@ -88,9 +88,7 @@ bool NoveltyDetectorNodelet::onSaveReference(SaveReference::Request& req,
     const std::string path = confinedSavePath(node_params_.save_directory, req.path);
     const Cloud map = reference_->map();
     const ReferenceViews views = reference_->views();
-    const bool as_file = path.size() > 4 && (path.compare(path.size() - 4, 4, ".pcd") == 0 ||
-                                             path.compare(path.size() - 4, 4, ".PCD") == 0);
-    if (!views.empty() && !as_file) {
+    if (!views.empty() && !hasPcdExtension(path)) {
       // A map of several sweeps: a reference directory keeps each sweep's viewpoint.
       std::vector<CloudFile> sweeps(views.origins.size());
       for (std::size_t k = 0; k < sweeps.size(); ++k)

@@ -29,13 +29,7 @@ TiledReference::TileKey TiledReference::tileOf(double x, double y) const {
 }
 
 void TiledReference::setMap(const Cloud& map, const ReferenceViews& views) {
-  if (!views.empty() && views.sweep.size() != map.size()) {
-    throw std::invalid_argument("reference views: " + std::to_string(views.sweep.size()) +
-                                " sweep indices for " + std::to_string(map.size()) + " points");
-  }
-  for (std::uint32_t k : views.sweep)
-    if (k >= views.origins.size())
-      throw std::invalid_argument("reference views: a point names a sweep that does not exist");
+  checkReferenceViews(map, views);
   auto copy = std::make_shared<Cloud>(map);
   auto views_copy = std::make_shared<ReferenceViews>(views);
   std::map<TileKey, Indices> tiles;

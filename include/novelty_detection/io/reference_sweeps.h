@@ -30,6 +30,9 @@ struct ReferenceMap {
 /// Whether `path` names a directory.
 bool isDirectory(const std::string& path);
 
+/// Whether `path` ends in .pcd (any case): a single-file reference rather than a directory.
+bool hasPcdExtension(const std::string& path);
+
 /// Loads a reference file or directory (see the header comment). `limits` bounds the total
 /// number of points, checked on each file's header before its body is read. Throws
 /// std::runtime_error naming the path and the problem: no such file or directory, a

@@ -51,11 +51,6 @@ std::string rosHome() {
   return ".";
 }
 
-bool endsWithPcd(const std::string& path) {
-  return path.size() > 4 && (path.compare(path.size() - 4, 4, ".pcd") == 0 ||
-                             path.compare(path.size() - 4, 4, ".PCD") == 0);
-}
-
 /// Saves the sweeps as a directory or as one merged file; returns what was written.
 std::string save(const std::string& output, const std::vector<nd::CloudFile>& sweeps) {
   std::size_t points = 0;
@@ -65,7 +60,7 @@ std::string save(const std::string& output, const std::vector<nd::CloudFile>& sw
   std::error_code ec;
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
   if (ec) throw std::runtime_error("cannot create '" + parent.string() + "': " + ec.message());
-  if (!endsWithPcd(output)) {
+  if (!nd::hasPcdExtension(output)) {
     nd::saveReferenceSweeps(output, sweeps);
     return std::to_string(sweeps.size()) + " sweeps (" + std::to_string(points) +
            " points) with their viewpoints into " + output + "/";
@@ -106,7 +101,7 @@ int main(int argc, char** argv) {
         "~max_sweeps >= 0, ~idle_timeout > 0, ~pose_tolerance_s >= 0 and a ~fixed_frame");
     return 1;
   }
-  if (!endsWithPcd(output) && nd::isDirectory(output)) {
+  if (!nd::hasPcdExtension(output) && nd::isDirectory(output)) {
     ROS_INFO("build_reference: %s exists; it is replaced only if it holds only sweep_*.pcd",
              output.c_str());
   }
