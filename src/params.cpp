@@ -1,5 +1,6 @@
 #include "novelty_detection/params.h"
 
+#include "novelty_detection/preprocess/ignore_regions.h"
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/preprocess/up_direction.h"
@@ -48,6 +49,7 @@ void PreprocessParams::validate() const {
   parseOrigin("preprocess/reference_origin", reference_origin);
   parseOrigin("preprocess/current_origin", current_origin);
   parseBodyBox(body_box);
+  parseIgnoreRegions(ignore_regions);
   validateRanges("preprocess", *this);
 }
 
@@ -82,6 +84,8 @@ void AlignmentParams::validate() const { validateRanges("alignment", *this); }
 
 void ComputeParams::validate() const { validateRanges("compute", *this); }
 
+void TrackingParams::validate() const { validateRanges("tracking", *this); }
+
 int ComputeParams::resolved() const {
   if (threads > 0) return threads;
   const unsigned hw = std::thread::hardware_concurrency();
@@ -98,6 +102,7 @@ void Params::validate() const {
   superquadric.validate();
   alignment.validate();
   compute.validate();
+  tracking.validate();
 }
 
 }  // namespace novelty_detection

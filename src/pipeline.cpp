@@ -16,6 +16,7 @@
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
+#include "novelty_detection/preprocess/ignore_regions.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/range_noise.h"
 #include "novelty_detection/preprocess/self_returns.h"
@@ -419,7 +420,16 @@ Result Pipeline::detect(const Cloud& given) const {
   // Absurd coordinates are missing points; a sweep off the map is refused.
   std::size_t out_of_range = 0;
   Cloud cleaned;
-  const Cloud& input = usableView(given, &cleaned, &out_of_range);
+  const Cloud* view = &usableView(given, &cleaned, &out_of_range);
+  // Ignore regions: their points are missing points too.
+  const std::vector<IgnoreRegion> regions = parseIgnoreRegions(params_.preprocess.ignore_regions);
+  std::size_t ignored = 0;
+  if (!regions.empty()) {
+    if (view != &cleaned) cleaned = given;
+    ignored = maskIgnoreRegions(regions, cleaned);
+    view = &cleaned;
+  }
+  const Cloud& input = *view;
   // Share of the sweep near the map: the floor of the distance is the one tau has.
   const double near_m = overlapDistance(ref.extent, params_.segmentation.min_novelty_distance_m);
   // The map's points are in the up frame, its extent in the input frame.
@@ -448,6 +458,8 @@ Result Pipeline::detect(const Cloud& given) const {
   result.up = ref.up.up;
   result.up_source = ref.up.source;
   result.overlap = overlap;
+  result.ignored_points = ignored;
+  result.ignored_disappearances = dropDisappearancesIn(regions, &result);
   result.visibility_checked = params_.segmentation.visibility_check && !ref.visibility.empty();
   result.disappearances_checked =
       params_.visibility.disappearances && sensorOriginKnown(input.sensor_origin_);

@@ -35,6 +35,7 @@ struct PreprocessParams {
   int max_points = 2000000;
   double min_range_m = 0.0;
   std::string body_box;
+  std::string ignore_regions;
   bool self_filter = true;
   double self_max_range_m = 1.5;
   bool outlier_removal = true;
@@ -77,6 +78,11 @@ struct PreprocessParams {
       {"the robot's body as a box in the sensor's frame, 'xmin ymin zmin xmax ymax zmax' [m]: "
        "returns inside it are dropped from both clouds (the robot_self_filter idea with one "
        "box); empty: none"});
+    f("ignore_regions", ignore_regions,
+      {"boxes of the map (reference) frame where changes are not reported, ';'-separated, each "
+       "'xmin ymin zmin xmax ymax zmax [yaw_deg]' [m] (yaw about the vertical through the box's "
+       "centre): current points inside are taken as missing, disappearances centred inside are "
+       "dropped; empty: none (preprocess/ignore_regions.h)"});
     f("self_filter", self_filter,
       {"drop the robot's own returns: points within self_max_range_m of their sensor that lie "
        "at the same place in the sensor's frame in both sweeps (needs both sensor origins; "
@@ -577,6 +583,32 @@ struct ComputeParams {
   int resolved() const;
 };
 
+/// Changes over time (tracking/change_tracker.h): in a stream of sweeps (the ROS node), each
+/// sweep's novelties and disappearances are associated with those of the sweeps before.
+struct TrackingParams {
+  int confirm_sweeps = 2;
+  int forget_sweeps = 2;
+  double gate_m = 0.3;
+  double min_overlap = 0.3;
+
+  template <class F>
+  void visit(F&& f) {
+    f("confirm_sweeps", confirm_sweeps,
+      {"a change is confirmed once it was detected in this many sweeps (1: at once)", 1, 1000});
+    f("forget_sweeps", forget_sweeps,
+      {"a tracked change is dropped after this many sweeps in a row that covered its place "
+       "without detecting it (a person who walked on)",
+       1, 1000});
+    f("gate_m", gate_m,
+      {"a detection continues a track when their centroids are at most this far apart [m] ...",
+       0.0, 100.0});
+    f("min_overlap", min_overlap,
+      {"... or when their bounding boxes overlap by at least this intersection over union",
+       0.0, 1.0});
+  }
+  void validate() const;
+};
+
 /// All parameters. Group names are the YAML sections and ROS parameter namespaces.
 struct Params {
   PreprocessParams preprocess;
@@ -588,6 +620,7 @@ struct Params {
   SuperquadricParams superquadric;
   AlignmentParams alignment;
   ComputeParams compute;
+  TrackingParams tracking;
 
   /// Calls f(group, name, value&, info) for every parameter.
   template <class F>
@@ -606,6 +639,7 @@ struct Params {
     superquadric.visit(in("superquadric"));
     alignment.visit(in("alignment"));
     compute.visit(in("compute"));
+    tracking.visit(in("tracking"));
   }
 
   /// Throws std::invalid_argument naming the first invalid parameter.

@@ -172,6 +172,10 @@ struct Result {
   /// the map (input_check.h); below kMinOverlap the sweep is refused as not overlapping.
   double overlap = 1.0;
   std::string noise_model;
+  /// Current points inside preprocess/ignore_regions (taken as missing), and disappearances
+  /// dropped because their centroid lies inside one.
+  std::size_t ignored_points = 0;
+  std::size_t ignored_disappearances = 0;
   /// What the detector set aside and the user should know (e.g. points with absurd
   /// coordinates treated as missing), one sentence each.
   std::vector<std::string> warnings;
