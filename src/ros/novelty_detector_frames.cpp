@@ -39,6 +39,7 @@ std::string NoveltyDetectorNodelet::setReferenceFrom(const std::string& path) {
           "~preprocess/reference_origin or ~preprocess/sensor_frame");
   }
   reference_->setMap(map.cloud, map.views);
+  resetTracks();
   const std::size_t sweeps = map.views.empty() ? 1 : map.views.origins.size();
   return std::to_string(map.cloud.size()) + " points, " + std::to_string(sweeps) +
          (sweeps == 1 ? " sweep" : " sweeps") + ", viewpoint: " + how;

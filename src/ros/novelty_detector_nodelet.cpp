@@ -90,6 +90,8 @@ void NoveltyDetectorNodelet::onInit() {
     for (const std::string& name : unknown_params_)
       NODELET_WARN("parameter ~%s is not a parameter of the detector: ignored (misspelt?)",
                    name.c_str());
+    novelty_tracks_ = std::make_unique<ChangeTracker>(params_.tracking);
+    disappearance_tracks_ = std::make_unique<ChangeTracker>(params_.tracking);
     reference_ = std::make_unique<TiledReference>(
         params_, node_params_.tile_size_m, static_cast<std::size_t>(node_params_.tile_cache_size));
   } catch (const std::exception& e) {
@@ -108,6 +110,7 @@ void NoveltyDetectorNodelet::onInit() {
   superquadrics_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("superquadrics", 1, true);
   gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
   novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
+  confirmed_pub_ = pnh.advertise<NoveltyArray>("confirmed_novelties", 10);
 
   // Services on their own queue and thread: a long set_reference or detect call never holds
   // up the input callbacks, the diagnostics timer or live tuning (calls are served in turn).
@@ -120,6 +123,8 @@ void NoveltyDetectorNodelet::onInit() {
   save_srv_ =
       service_nh.advertiseService("save_reference", &NoveltyDetectorNodelet::onSaveReference, this);
   detect_srv_ = service_nh.advertiseService("detect", &NoveltyDetectorNodelet::onDetect, this);
+  ignore_srv_ = service_nh.advertiseService("set_ignore_regions",
+                                            &NoveltyDetectorNodelet::onSetIgnoreRegions, this);
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   service_spinner_->start();
 
@@ -188,15 +193,14 @@ void NoveltyDetectorNodelet::onInput(const sensor_msgs::PointCloud2::ConstPtr& m
       // Each publisher numbers its own messages: gaps are counted per publisher (a bounded
       // set: every rosbag play is a new one).
       if (gaps_.size() >= 64 && gaps_.count(publisher) == 0) gaps_.clear();
-      const std::size_t lost =
-          gaps_[publisher].observe(msg->header.seq, msg->header.stamp.toSec());
+      const std::size_t lost = gaps_[publisher].observe(msg->header.seq, msg->header.stamp.toSec());
       lost_upstream_ += lost;
       if (lost > 0)
         NODELET_WARN_THROTTLE(kWarnPeriodS,
                               "%zu sweep(s) from %s lost before reaching the node (header seq "
                               "%u, stamp %.3f); %zu in all",
-                              lost, publisher.c_str(), msg->header.seq,
-                              msg->header.stamp.toSec(), lost_upstream_);
+                              lost, publisher.c_str(), msg->header.seq, msg->header.stamp.toSec(),
+                              lost_upstream_);
     }
     // The tf filter waits silently for frames that never come: say so at once.
     if (msg->header.frame_id.empty()) {
@@ -295,6 +299,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
             "captured reference without a viewpoint (the sweep is in the fixed frame "
             "and ~sensor_frame is not set)");
       reference_->setMap(cloud);
+      resetTracks();
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
     } catch (const std::exception& e) {
@@ -322,7 +327,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
     if (result.alignment.applied) cloud = transformCloud(cloud, result.alignment.correction);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    novelties_pub_.publish(toNoveltyArray(result, header, ms / 1000.0));
+    NoveltyArray array = toNoveltyArray(result, header, ms / 1000.0);
+    trackChanges(result, cloud, header.stamp.toSec(), array);
+    novelties_pub_.publish(array);
+    confirmed_pub_.publish(confirmedOnly(array));
     novelty_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, true));
     disappeared_cloud_pub_.publish(
         toLabelledPointCloud2(reference, result.disappeared_labels, header, true));

@@ -11,6 +11,8 @@
 #include "novelty_detection/error_text.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/reference_sweeps.h"
+#include "novelty_detection/preprocess/ignore_regions.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/reconfigure.h"
@@ -137,6 +139,55 @@ bool NoveltyDetectorNodelet::onDetect(Detect::Request& req, Detect::Response& re
     NODELET_WARN("detect failed: %s", errorText(e).c_str());
   }
   return true;
+}
+
+bool NoveltyDetectorNodelet::onSetIgnoreRegions(SetIgnoreRegions::Request& req,
+                                                SetIgnoreRegions::Response& res) {
+  std::lock_guard<std::mutex> lock(params_mutex_);
+  try {
+    if (!params_error_.empty()) throw std::runtime_error("not running: " + params_error_);
+    Params updated = params_;
+    updated.preprocess.ignore_regions = req.regions;
+    const std::vector<IgnoreRegion> regions = parseIgnoreRegions(req.regions);
+    reference_->setParams(updated);
+    params_ = updated;
+    res.success = true;
+    res.message = regions.empty() ? std::string("no ignore region")
+                                  : std::to_string(regions.size()) +
+                                        " ignore region(s): " + formatIgnoreRegions(regions);
+    NODELET_INFO("%s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = errorText(e);
+    NODELET_WARN("set_ignore_regions refused: %s", errorText(e).c_str());
+  }
+  return true;
+}
+
+void NoveltyDetectorNodelet::resetTracks() {
+  std::lock_guard<std::mutex> lock(tracks_mutex_);
+  if (novelty_tracks_) novelty_tracks_->reset();
+  if (disappearance_tracks_) disappearance_tracks_->reset();
+}
+
+void NoveltyDetectorNodelet::trackChanges(const Result& result, const Cloud& cloud, double stamp,
+                                          NoveltyArray& array) {
+  const TrackingParams params = currentParams().tracking;
+  const Eigen::AlignedBox3d extent = usableExtent(cloud);
+  std::lock_guard<std::mutex> lock(tracks_mutex_);
+  auto track = [&](ChangeTracker& tracker, const std::vector<Segment>& segments) {
+    tracker.setParams(params);
+    const std::vector<std::uint32_t> ids = tracker.update(segments, stamp, extent);
+    std::vector<const ChangeTrack*> tracks;
+    for (std::uint32_t id : ids) tracks.push_back(tracker.track(id));
+    return tracks;
+  };
+  // Pointers stay valid until the next update of the same tracker.
+  const auto novel = track(*novelty_tracks_, result.segments);
+  const auto gone = result.disappearances_checked
+                        ? track(*disappearance_tracks_, result.disappeared_segments)
+                        : std::vector<const ChangeTrack*>{};
+  setTracks(array, novel, gone);
 }
 
 void NoveltyDetectorNodelet::onReconfigure(DetectorConfig& config, uint32_t /*level*/) {

@@ -1,5 +1,7 @@
 #include "novelty_detection/ros/result_messages.h"
 
+#include <ros/time.h>
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -96,8 +98,43 @@ NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header
   out.newly_visible_points = nv;
   out.visibility_checked = result.visibility_checked;
   out.disappearances_checked = result.disappearances_checked;
+  out.ignored_points = static_cast<std::uint32_t>(result.ignored_points);
+  out.ignored_disappearances = static_cast<std::uint32_t>(result.ignored_disappearances);
   for (const auto& seg : result.disappeared_segments)
     out.disappeared.push_back(toNoveltyMsg(seg, result.disappeared_superquadrics));
+  return out;
+}
+
+namespace {
+
+void setTracks(std::vector<Novelty>& entries, const std::vector<const ChangeTrack*>& tracks) {
+  for (std::size_t i = 0; i < entries.size() && i < tracks.size(); ++i) {
+    const ChangeTrack* t = tracks[i];
+    if (!t) continue;
+    entries[i].track_id = t->id;
+    entries[i].times_seen = static_cast<std::uint32_t>(std::max(t->times_seen, 0));
+    entries[i].first_seen = ros::Time(std::max(t->first_seen, 0.0));
+    entries[i].last_seen = ros::Time(std::max(t->last_seen, 0.0));
+    entries[i].confirmed = t->confirmed;
+  }
+}
+
+}  // namespace
+
+void setTracks(NoveltyArray& array, const std::vector<const ChangeTrack*>& novelty_tracks,
+               const std::vector<const ChangeTrack*>& disappeared_tracks) {
+  setTracks(array.novelties, novelty_tracks);
+  setTracks(array.disappeared, disappeared_tracks);
+}
+
+NoveltyArray confirmedOnly(const NoveltyArray& array) {
+  NoveltyArray out = array;
+  auto keep = [](std::vector<Novelty>& v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [](const Novelty& n) { return !n.confirmed; }),
+            v.end());
+  };
+  keep(out.novelties);
+  keep(out.disappeared);
   return out;
 }
 

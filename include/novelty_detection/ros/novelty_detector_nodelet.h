@@ -24,12 +24,14 @@
 #include "novelty_detection/Detect.h"
 #include "novelty_detection/DetectorConfig.h"
 #include "novelty_detection/SaveReference.h"
+#include "novelty_detection/SetIgnoreRegions.h"
 #include "novelty_detection/SetReference.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/params.h"
 #include "novelty_detection/ros/node_params.h"
 #include "novelty_detection/ros/sweep_gaps.h"
 #include "novelty_detection/ros/tiled_reference.h"
+#include "novelty_detection/tracking/change_tracker.h"
 
 namespace novelty_detection {
 
@@ -37,9 +39,10 @@ namespace novelty_detection {
 /// hands the newest sweep to a worker thread (depth 1: a sweep arriving while one waits
 /// replaces it and is counted as dropped) that compares it with the reference map and
 /// publishes ~novelty_cloud, ~disappeared_cloud, ~labelled_cloud, ~superquadrics, ~gaussians
-/// and ~novelties.
-/// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect, served on their
-/// own thread.
+/// and ~novelties; novelties and disappearances are tracked over the sweeps (tracking/*) and
+/// the confirmed ones published on ~confirmed_novelties.
+/// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect,
+/// ~set_ignore_regions, served on their own thread.
 class NoveltyDetectorNodelet : public nodelet::Nodelet {
  public:
   NoveltyDetectorNodelet();
@@ -85,6 +88,12 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   bool onSetReference(SetReference::Request& req, SetReference::Response& res);
   bool onSaveReference(SaveReference::Request& req, SaveReference::Response& res);
   bool onDetect(Detect::Request& req, Detect::Response& res);
+  bool onSetIgnoreRegions(SetIgnoreRegions::Request& req, SetIgnoreRegions::Response& res);
+  /// Tracks the result's novelties and disappearances (sweep extent from `cloud`, fixed
+  /// frame) and fills their track fields in `array`.
+  void trackChanges(const Result& result, const Cloud& cloud, double stamp, NoveltyArray& array);
+  /// Forgets every track (a new reference).
+  void resetTracks();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// dynamic_reconfigure (~tuning): applies the thresholds in config/Detector.cfg; an
   /// invalid combination is refused and the previous values are shown again.
@@ -103,14 +112,17 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> tf_filter_;
   ros::Subscriber input_sub_;
   ros::Publisher status_pub_, novelty_cloud_pub_, disappeared_cloud_pub_, labelled_cloud_pub_,
-      superquadrics_pub_, gaussians_pub_, novelties_pub_;
-  ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_;
+      superquadrics_pub_, gaussians_pub_, novelties_pub_, confirmed_pub_;
+  ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_, ignore_srv_;
   ros::CallbackQueue service_queue_;  // the services' own, spun by service_spinner_
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer diagnostics_timer_;
 
   std::unique_ptr<TiledReference> reference_;
+  // Changes over time (guarded by tracks_mutex_: the worker updates, services reset).
+  std::mutex tracks_mutex_;
+  std::unique_ptr<ChangeTracker> novelty_tracks_, disappearance_tracks_;
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<DetectorConfig>> reconfigure_;

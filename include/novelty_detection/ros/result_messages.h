@@ -5,6 +5,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include "novelty_detection/NoveltyArray.h"
+#include "novelty_detection/tracking/change_tracker.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -16,6 +17,15 @@ SuperquadricPart toSuperquadricMsg(const Superquadric& sq);
 /// disappearances as Novelty entries of `disappeared` (points counted in the reference).
 NoveltyArray toNoveltyArray(const Result& result, const std_msgs::Header& header,
                             double processing_time_s);
+
+/// Fills track_id, times_seen, first_seen, last_seen and confirmed of each novelty and
+/// disappearance from its track (entry i from tracks[i]; a null track leaves the entry
+/// untracked).
+void setTracks(NoveltyArray& array, const std::vector<const ChangeTrack*>& novelty_tracks,
+               const std::vector<const ChangeTrack*>& disappeared_tracks);
+
+/// The array with only its confirmed novelties and disappearances (everything else kept).
+NoveltyArray confirmedOnly(const NoveltyArray& array);
 
 /// A distinct, stable colour for a segment id (golden-ratio hue steps).
 std_msgs::ColorRGBA segmentColour(int segment, float alpha = 0.8f);

@@ -21,9 +21,10 @@ int main(int argc, char** argv) {
         for (const auto& n : m->novelties) {
           std::printf(
               "  novelty %d: %u points, centroid (%.2f, %.2f, %.2f) m, box (%.2f, %.2f, %.2f)"
-              "..(%.2f, %.2f, %.2f) m, EMD share %.4f\n",
+              "..(%.2f, %.2f, %.2f) m, EMD share %.4f, track %u seen %u time(s)%s\n",
               n.id, n.points, n.centroid.x, n.centroid.y, n.centroid.z, n.bbox_min.x, n.bbox_min.y,
-              n.bbox_min.z, n.bbox_max.x, n.bbox_max.y, n.bbox_max.z, n.emd_contribution);
+              n.bbox_min.z, n.bbox_max.x, n.bbox_max.y, n.bbox_max.z, n.emd_contribution,
+              n.track_id, n.times_seen, n.confirmed ? ", confirmed" : "");
           for (const auto& sq : n.superquadrics) {
             std::printf(
                 "    superquadric: a = (%.3f, %.3f, %.3f) m, e1 = %.2f, e2 = %.2f, at (%.2f, "
