@@ -4,6 +4,9 @@
 //   RouteMapLoad     loadReference(DIR) of the 20 PCD sweeps + Pipeline::setReference
 //   RouteDetect/0    the sweep against the route sweep nearest it (one viewpoint)
 //   RouteDetect/1    the sweep against the whole route map (20 viewpoints)
+//   RouteFreeSpace/0 what the route saw as free: one range image per sweep (the package's way)
+//   RouteFreeSpace/1 the same from an OctoMap (5 cm, every beam ray-cast into the octree);
+//                    both with the share of the new object's points they call free space
 //
 //   bench_route --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -18,6 +21,9 @@
 #include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/route.h"
+#include "novelty_detection/visibility/visibility.h"
+
+#include <octomap/OcTree.h>
 
 using namespace novelty_detection;
 
@@ -83,6 +89,45 @@ void BM_RouteDetect(benchmark::State& state) {
   state.counters["segments"] = static_cast<double>(result.segments.size());
 }
 BENCHMARK(BM_RouteDetect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_RouteFreeSpace(benchmark::State& state) {
+  const Route& r = route();
+  const bool octree = state.range(0) == 1;
+  const sim::RouteSweep& sweep = r.scene.sequence.front();
+  std::vector<Eigen::Vector3f> object;
+  for (std::size_t i = 0; i < sweep.cloud.size(); ++i)
+    if (sweep.labels[i] == sim::kStayingObjectId) object.push_back(sweep.cloud[i].getVector3fMap());
+  const double margin_m = 0.1;
+  std::size_t free = 0;
+  for (auto _ : state) {
+    free = 0;
+    if (octree) {
+      octomap::OcTree tree(0.05);
+      for (const auto& s : r.scene.reference) {
+        octomap::Pointcloud scan;
+        for (const PointT& p : s.cloud) scan.push_back(p.x, p.y, p.z);
+        const Eigen::Vector3d o = s.T_world_sensor.translation();
+        tree.insertPointCloud(scan, octomap::point3d(o.x(), o.y(), o.z()), 30.0);
+      }
+      for (const auto& p : object) {
+        const octomap::OcTreeNode* n = tree.search(p.x(), p.y(), p.z());
+        free += n && !tree.isNodeOccupied(n);
+      }
+    } else {
+      ReferenceVisibility visibility;
+      for (const auto& s : r.scene.reference) {
+        RangeImage image;
+        image.build(s.cloud, {}, s.T_world_sensor.translation().cast<float>(),
+                    RangeImage::Config());
+        visibility.add(std::move(image));
+      }
+      for (const auto& p : object) free += visibility.classify(p, margin_m) == Visibility::kFree;
+    }
+  }
+  state.counters["object_points"] = static_cast<double>(object.size());
+  state.counters["free_share"] = object.empty() ? 0.0 : static_cast<double>(free) / object.size();
+}
+BENCHMARK(BM_RouteFreeSpace)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -187,9 +187,10 @@ RouteSummary summarizeRoutes(const std::vector<RouteSceneResult>& results) {
   return s;
 }
 
-std::string routeSummaryJson(const RouteSummary& s) {
+std::string routeSummaryJson(const RouteSummary& s, int skipped_scenes) {
   nlohmann::json j;
   j["scenes"] = s.scenes;
+  j["skipped_scenes"] = skipped_scenes;
   j["sweeps"] = s.sweeps;
   j["success_rate"] = s.success_rate;
   j["mean_f1"] = s.mean_f1;

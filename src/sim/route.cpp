@@ -49,6 +49,8 @@ RouteSweep castSweep(const World& world, const Eigen::Vector3d& base, const Lase
   TiltScan scan = simulateTiltScan(world, s.T_world_sensor, laser, noise_seed);
   s.cloud = std::move(scan.cloud);
   s.labels = std::move(scan.labels);
+  s.lines = std::move(scan.lines);
+  s.base_pose = base;
   return s;
 }
 
@@ -109,7 +111,7 @@ RouteScene generateRoute(const RouteConfig& config) {
   LaserConfig check = config.laser;
   check.noise_variance_m2 = 0.0;
   bool placed = false;
-  for (int start_try = 0; start_try < 8 && !placed; ++start_try) {
+  for (int start_try = 0; start_try < 30 && !placed; ++start_try) {
     const int gap = uniformInt(rng, 0, n - 2);
     start = clearPosition(layout,
                           {0.5 * (route[gap].x() + route[gap + 1].x()),
@@ -128,8 +130,8 @@ RouteScene generateRoute(const RouteConfig& config) {
         p = poses.empty() ? start : Eigen::Vector2d(poses.back().head<2>());
       poses.emplace_back(p.x(), p.y(), yaw0);
     }
-    side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
     for (int attempt = 0; attempt < 30 && !placed; ++attempt) {
+      side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
       const detail::ShapeTemplate shape = detail::sampleShape(config.object, rng);
       const double ahead = uniform(rng, 1.5, std::max(1.6, std::min(5.0, room_ahead - 0.5)));
       const double y = mid_y + side * uniform(rng, 0.2, std::max(0.25, half_width - shape.radius));
@@ -159,19 +161,20 @@ RouteScene generateRoute(const RouteConfig& config) {
     throw std::runtime_error("generateRoute: no visible placement for the staying object (seed " +
                              std::to_string(config.seed) + ")");
 
-  // The person: walks towards the robot on the other side of the route, at least 0.5 m to
-  // the side of the robot's path; outside the free space (it came in or went out) it is absent.
+  // The person: walks towards the robot on the other side of the route, at least 0.25 m
+  // beside the robot's path; outside the free space (it came in or went out) it is absent.
   const detail::ShapeTemplate person = detail::sampleShape(NoveltyKind::kPerson, rng);
   const double person_start = std::min(uniform(rng, 5.0, 7.0), room_ahead - person.radius);
   auto personAt = [&](int k, double y) {
     const double along = person_start - config.person_step_m * k - config.current_step_m * k;
     return Eigen::Vector2d(poses[k].x() + dir * along, y);
   };
-  // Its lane: the offset on its side (0.5 m + its radius from the robot's path, up to the
+  // Its lane: the offset on its side (0.25 m + its radius from the robot's path, up to the
   // wall) where it stands clear in the most sweeps (furniture along a wall blocks a lane).
-  double person_y = start.y() - side * (0.5 + person.radius);
+  const double min_offset = 0.25 + person.radius;
+  double person_y = start.y() - side * min_offset;
   int most_clear = -1;
-  for (double offset = 0.5 + person.radius; offset <= 2.0 * half_width; offset += 0.1) {
+  for (double offset = min_offset; offset <= 2.0 * half_width; offset += 0.1) {
     const double y = start.y() - side * offset;
     int clear = 0;
     for (int k = 0; k < config.sequence_sweeps; ++k)

@@ -79,8 +79,17 @@ int run(const Options& o) {
   if (!o.params.empty()) loadParamsYaml(o.params, params);
   params.validate();
   std::vector<RouteSceneResult> results;
+  int skipped = 0;
   for (int i = 0; i < o.scenes; ++i) {
-    const sim::RouteScene scene = sim::generateRoute(sim::routeSceneConfig(i, o.seed));
+    sim::RouteScene scene;
+    try {
+      scene = sim::generateRoute(sim::routeSceneConfig(i, o.seed));
+    } catch (const std::runtime_error& e) {
+      // The simulator found no layout for this scene: not a detection, said and counted.
+      std::cerr << "[" << i + 1 << "/" << o.scenes << "] skipped: " << e.what() << std::endl;
+      ++skipped;
+      continue;
+    }
     results.push_back(evaluateRouteScene(scene, i, params, BaselineOptions(), o.comparisons));
     const RouteSceneResult& r = results.back();
     int ok = 0;
@@ -98,7 +107,7 @@ int run(const Options& o) {
     md << routeMarkdown(results, summary);
     if (!md.flush()) throw std::runtime_error(o.markdown + ": cannot write");
   }
-  std::cout << routeSummaryJson(summary) << std::endl;
+  std::cout << routeSummaryJson(summary, skipped) << std::endl;
   return 0;
 }
 

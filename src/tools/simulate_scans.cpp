@@ -6,12 +6,14 @@
 //                  [--loc-error X Y Z ROLL_DEG PITCH_DEG YAW_DEG]
 //                  [--kinds box,person,...] [--suite [N]] [--suite-kind default|viewpoint]
 //                  [--no-bag]
-#include <geometry_msgs/TransformStamped.h>
-#include <rosbag/bag.h>
-#include <sensor_msgs/LaserScan.h>
-#include <sensor_msgs/PointCloud2.h>
-#include <tf2_msgs/TFMessage.h>
+//   simulate_scans --out DIR --route [N_SWEEPS] [--seed S] [--layout corridor|office]
+//
+// --route: a patrol route (sim/route.h) of N_SWEEPS reference sweeps (default 10) as
+// DIR/route.bag (every sweep's lines, tf and sweep, 1 s apart), the current sequence as
+// DIR/cur_K.pcd with DIR/gt_labels_K.txt (1: the object that stays, 2: the walking person),
+// and DIR/route.json.
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -25,23 +27,26 @@
 #include <vector>
 
 #include "novelty_detection/io/cloud_io.h"
+#include "novelty_detection/sim/route.h"
 #include "novelty_detection/sim/scene.h"
 #include "novelty_detection/sim/scene_json.h"
+#include "sweep_bag.h"
 #include "tool_main.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
+using namespace novelty_detection::sweep_bag;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 const char* kUsage =
     "usage: simulate_scans --out DIR [--seed S] [--layout corridor|office] [--lines N]\n"
     "                      [--noise-var V] [--offset DX DY DYAW_DEG] [--novelties K]\n"
     "                      [--loc-error X Y Z ROLL_DEG PITCH_DEG YAW_DEG]\n"
     "                      [--kinds box,cylinder,sphere,superellipsoid,person,moved_object,door,\n"
     "                               removed_object]\n"
-    "                      [--suite [N]] [--suite-kind default|viewpoint] [--no-bag]\n";
+    "                      [--suite [N]] [--suite-kind default|viewpoint] [--no-bag]\n"
+    "       simulate_scans --out DIR --route [N_SWEEPS] [--seed S] [--layout corridor|office]\n";
 
 struct Options {
   std::string out;
@@ -52,6 +57,7 @@ struct Options {
   std::string suite_kind = "default";
   bool suite_kind_set = false;
   bool bag = true;
+  int route_sweeps = 0;  ///< > 0: write a patrol route of this many sweeps
   bool lines_set = false, noise_set = false, scene_set = false;
 };
 
@@ -141,6 +147,13 @@ Options parse(int argc, char** argv) {
         if (n < 1 || n > 1000) throw std::invalid_argument("--suite N must lie in [1, 1000]");
         o.suite_size = static_cast<int>(n);
       }
+    } else if (f == "--route") {
+      o.route_sweeps = 10;
+      if (i + 1 < a.size() && a[i + 1].rfind("--", 0) != 0) {
+        const long n = toInt(f, a[++i]);
+        if (n < 2 || n > 40) throw std::invalid_argument("--route N_SWEEPS must lie in [2, 40]");
+        o.route_sweeps = static_cast<int>(n);
+      }
     } else if (f == "--no-bag") {
       o.bag = false;
     } else if (f == "--help" || f == "-h") {
@@ -156,6 +169,11 @@ Options parse(int argc, char** argv) {
     throw std::invalid_argument(
         "--layout, --offset, --loc-error, --novelties and --kinds choose one scene; a --suite "
         "varies them");
+  if (o.route_sweeps > 0 &&
+      (o.suite || o.lines_set || o.noise_set || !o.bag ||
+       o.scene.pose_offset != Eigen::Vector3d::Zero() || !o.scene.localisation_error.isZero() ||
+       !o.scene.novelty_kinds.empty()))
+    throw std::invalid_argument("--route takes only --seed and --layout");
   o.scene.seed = o.seed;
   o.scene.validate();
   return o;
@@ -172,88 +190,6 @@ void writeTextAtomic(const fs::path& path, const std::string& text) {
 }
 
 // ---------------------------------------------------------------------------------------
-// rosbag output: the raw lines as LaserScan with the tilt joint on /tf, and each sweep as
-// one PointCloud2 in the map frame.
-
-geometry_msgs::TransformStamped transformMsg(const Eigen::Isometry3d& T, const ros::Time& stamp,
-                                             const std::string& parent, const std::string& child) {
-  geometry_msgs::TransformStamped m;
-  m.header.stamp = stamp;
-  m.header.frame_id = parent;
-  m.child_frame_id = child;
-  m.transform.translation.x = T.translation().x();
-  m.transform.translation.y = T.translation().y();
-  m.transform.translation.z = T.translation().z();
-  const Eigen::Quaterniond q(T.linear());
-  m.transform.rotation.x = q.x();
-  m.transform.rotation.y = q.y();
-  m.transform.rotation.z = q.z();
-  m.transform.rotation.w = q.w();
-  return m;
-}
-
-sensor_msgs::PointCloud2 cloudMsg(const Cloud& cloud, const ros::Time& stamp) {
-  sensor_msgs::PointCloud2 m;
-  m.header.stamp = stamp;
-  m.header.frame_id = "map";
-  m.height = 1;
-  m.width = static_cast<std::uint32_t>(cloud.size());
-  const char* names[3] = {"x", "y", "z"};
-  for (int k = 0; k < 3; ++k) {
-    sensor_msgs::PointField f;
-    f.name = names[k];
-    f.offset = 4 * k;
-    f.datatype = sensor_msgs::PointField::FLOAT32;
-    f.count = 1;
-    m.fields.push_back(f);
-  }
-  m.is_bigendian = false;
-  m.point_step = 12;
-  m.row_step = 12 * m.width;
-  m.is_dense = true;
-  m.data.resize(m.row_step);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const float xyz[3] = {cloud[i].x, cloud[i].y, cloud[i].z};
-    std::memcpy(&m.data[12 * i], xyz, sizeof(xyz));
-  }
-  return m;
-}
-
-Eigen::Isometry3d basePose(const Eigen::Vector3d& base) {
-  Eigen::Isometry3d T_map_base = Eigen::Isometry3d::Identity();
-  T_map_base.translation() = Eigen::Vector3d(base.x(), base.y(), 0.0);
-  T_map_base.linear() = Eigen::AngleAxisd(base.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  return T_map_base;
-}
-
-// T_map_base is the pose the robot reports (with the localisation error, if any).
-void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
-                const std::vector<sim::LaserLine>& lines, const Eigen::Isometry3d& T_map_base,
-                const Cloud& cloud, double t0, double dt) {
-  for (std::size_t l = 0; l < lines.size(); ++l) {
-    const ros::Time stamp(t0 + dt * l);
-    tf2_msgs::TFMessage tf;
-    tf.transforms.push_back(transformMsg(T_map_base, stamp, "map", "base_link"));
-    tf.transforms.push_back(transformMsg(sim::baseToLaser(lines[l].tilt_rad, laser.mount_height_m),
-                                         stamp, "base_link", "laser"));
-    bag.write("/tf", stamp, tf);
-    sensor_msgs::LaserScan scan;
-    scan.header.stamp = stamp;
-    scan.header.frame_id = "laser";
-    scan.angle_min = static_cast<float>(laser.beamAngle(0));
-    scan.angle_max = static_cast<float>(laser.beamAngle(laser.beamsPerLine() - 1));
-    scan.angle_increment = static_cast<float>(laser.step_deg * kDeg);
-    scan.scan_time = 0.025f;  // UTM-30LX: 40 Hz
-    scan.time_increment = static_cast<float>(0.025 / (360.0 / laser.step_deg));
-    scan.range_min = static_cast<float>(laser.min_range_m);
-    scan.range_max = static_cast<float>(laser.max_range_m);
-    scan.ranges = lines[l].ranges;  // +inf: no return (REP 117)
-    bag.write("/scan", stamp, scan);
-  }
-  const ros::Time end(t0 + dt * lines.size());
-  bag.write("/sweep", end, cloudMsg(cloud, end));
-}
-
 void writeBag(const fs::path& path, const sim::ScenePair& s) {
   const fs::path tmp = path.string() + ".tmp";
   const double t0 = 1000.0;  // fixed, so bags are reproducible
@@ -340,9 +276,57 @@ void printScene(const std::string& prefix, const nlohmann::json& j, double secon
   std::fflush(stdout);
 }
 
+std::string labelText(const std::vector<int>& labels) {
+  std::string text;
+  for (int l : labels) text += std::to_string(l) + "\n";
+  return text;
+}
+
+int writeRoute(const Options& opt) {
+  const fs::path out(opt.out);
+  fs::create_directories(out);
+  sim::RouteConfig c;
+  c.seed = opt.seed;
+  c.layout = opt.scene.layout;
+  c.reference_sweeps = opt.route_sweeps;
+  const sim::RouteScene r = sim::generateRoute(c);
+  const fs::path tmp = (out / "route.bag").string() + ".tmp";
+  const double dt = std::min(0.025, 0.9 / std::max(1, c.laser.lines));
+  {
+    rosbag::Bag bag;
+    bag.open(tmp.string(), rosbag::bagmode::Write);
+    for (std::size_t k = 0; k < r.reference.size(); ++k) {
+      const sim::RouteSweep& s = r.reference[k];
+      writeSweep(bag, c.laser, s.lines, basePose(s.base_pose), s.cloud, 1000.0 + k, dt);
+    }
+    bag.close();
+  }
+  fs::rename(tmp, out / "route.bag");
+  nlohmann::json sequence = nlohmann::json::array();
+  for (std::size_t k = 0; k < r.sequence.size(); ++k) {
+    const sim::RouteSweep& s = r.sequence[k];
+    const std::string n = std::to_string(k);
+    saveCloudAtomic((out / ("cur_" + n + ".pcd")).string(), s.cloud, s.T_world_sensor);
+    writeTextAtomic(out / ("gt_labels_" + n + ".txt"), labelText(s.labels));
+    sequence.push_back({{"points", s.cloud.size()},
+                        {"object_points", std::count(s.labels.begin(), s.labels.end(), 1)},
+                        {"person_points", std::count(s.labels.begin(), s.labels.end(), 2)}});
+  }
+  const nlohmann::json j = {{"seed", c.seed},
+                            {"layout", sim::toString(c.layout)},
+                            {"reference_sweeps", r.reference.size()},
+                            {"object", sim::toString(r.object.kind)},
+                            {"sequence", sequence}};
+  writeTextAtomic(out / "route.json", j.dump(2) + "\n");
+  std::printf("wrote %s/{route.bag,cur_0..%zu.pcd,gt_labels_0..%zu.txt,route.json}: %zu sweeps\n",
+              out.c_str(), r.sequence.size() - 1, r.sequence.size() - 1, r.reference.size());
+  return 0;
+}
+
 int run(const Options& opt) {
   using Clock = std::chrono::steady_clock;
   const fs::path out(opt.out);
+  if (opt.route_sweeps > 0) return writeRoute(opt);
   if (!opt.suite) {
     const auto t = Clock::now();
     const nlohmann::json j = writeScene(out, opt.scene, opt.bag);

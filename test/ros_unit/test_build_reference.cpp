@@ -6,10 +6,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -107,6 +109,59 @@ TEST_F(BuildReference, BagToReferenceDirectoryToDetection) {
   EXPECT_TRUE(report["visibility_checked"].get<bool>());
   EXPECT_TRUE(report["disappearances_checked"].get<bool>());
   EXPECT_EQ(report["num_segments"].get<int>(), 2);
+}
+
+// A patrol route: a bag of 8 sweeps from 8 poses becomes a reference directory of 8 sweeps,
+// each with its pose, and a current sweep from a pose between them is detected against it.
+TEST_F(BuildReference, RouteBagToReferenceDirectoryToDetection) {
+  const ProcessRun sim = run((kBin / "simulate_scans").string() + " --out " +
+                             (dir_ / "route_scene").string() + " --route 8 --seed 3");
+  ASSERT_EQ(sim.code, 0) << sim.out;
+  const fs::path ref = dir_ / "route_map";
+  const ProcessRun launch = run(roslaunch("bag:=" + (dir_ / "route_scene" / "route.bag").string() +
+                                          " sensor_frame:=laser output:=" + ref.string()));
+  ASSERT_NE(launch.out.find("saved 8 sweeps"), std::string::npos) << launch.out;
+  const ReferenceMap map = loadReference(ref.string());
+  ASSERT_EQ(map.views.origins.size(), 8u);
+  // Eight different poses along the route.
+  EXPECT_GT((map.views.origins.front() - map.views.origins.back()).norm(), 3.0f);
+
+  const ProcessRun detect = run(
+      (kBin / "novelty_detect").string() + " --reference " + ref.string() + " --current " +
+      (dir_ / "route_scene" / "cur_0.pcd").string() + " --out " + (dir_ / "route_out").string());
+  ASSERT_EQ(detect.code, 0) << detect.out;
+  const std::vector<int> labels = readLabels(dir_ / "route_out" / "labels.txt");
+  const std::vector<int> gt = readLabels(dir_ / "route_scene" / "gt_labels_0.txt");
+  ASSERT_EQ(labels.size(), gt.size());
+  std::size_t tp = 0, fp = 0, fn = 0;
+  std::map<int, std::pair<std::size_t, std::size_t>> segments;  // id: (points, on changes)
+  std::size_t object = 0, object_found = 0;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    tp += labels[i] > 0 && gt[i] > 0;
+    fp += labels[i] > 0 && gt[i] <= 0;
+    fn += labels[i] <= 0 && gt[i] > 0;
+    if (labels[i] > 0) {
+      ++segments[labels[i]].first;
+      segments[labels[i]].second += gt[i] > 0;
+    }
+    object += gt[i] == 1;
+    object_found += gt[i] == 1 && labels[i] > 0;
+  }
+  const double f1 = 2.0 * tp / std::max<std::size_t>(1, 2 * tp + fp + fn);
+  std::printf("route map from the bag: F1 %.3f (%zu tp, %zu fp, %zu fn), %zu segments\n", f1, tp,
+              fp, fn, segments.size());
+  EXPECT_GE(f1, 0.8);
+  EXPECT_GE(object_found, 0.8 * object);     // the object that stays
+  // No false segment (mostly off the changes) over 1 % of the sweep: the suite's bar (a patch
+  // of floor seen densely from the current pose and only along sparse lines from the route's
+  // poses may stay below it).
+  for (const auto& [id, counts] : segments)
+    if (2 * counts.second <= counts.first)
+      EXPECT_LT(counts.first, 0.01 * gt.size()) << "false segment " << id;
+  std::ifstream in(dir_ / "route_out" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_TRUE(report["visibility_checked"].get<bool>());
+  EXPECT_EQ(report["num_segments"].get<std::size_t>(), segments.size());
 }
 
 TEST_F(BuildReference, AFailedSaveIsFatal) {

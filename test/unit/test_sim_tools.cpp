@@ -51,6 +51,9 @@ TEST(SimTools, SimulateScansWritesAConsistentSceneAndEvaluateScoresIt) {
   EXPECT_EQ(run(kBin + "/evaluate --labels " + (out / "gt_labels.txt").string()), 2);
   EXPECT_EQ(run(kBin + "/simulate_scans --out " + out.string() + " --lines x"), 2);
   EXPECT_EQ(run(kBin + "/simulate_scans --out " + out.string() + " --layout attic"), 2);
+  EXPECT_EQ(run(kBin + "/simulate_scans --out " + out.string() + " --route 1"), 2);
+  EXPECT_EQ(run(kBin + "/simulate_scans --out " + out.string() + " --route 5 --suite 3"), 2);
+  EXPECT_EQ(run(kBin + "/simulate_scans --out " + out.string() + " --route 5 --kinds box"), 2);
 }
 
 TEST(SimTools, SuiteModeWritesScenesAndEvaluateCountsMissingResults) {

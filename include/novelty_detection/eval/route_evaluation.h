@@ -66,8 +66,9 @@ RouteSceneResult evaluateRouteScene(const sim::RouteScene& scene, int index, con
 
 RouteSummary summarizeRoutes(const std::vector<RouteSceneResult>& results);
 
-/// The summary as one JSON object (one line), and a Markdown table per scene plus totals.
-std::string routeSummaryJson(const RouteSummary& summary);
+/// The summary as one JSON object (one line; `skipped_scenes`: scenes the simulator could not
+/// lay out, left out of every figure), and a Markdown table per scene plus totals.
+std::string routeSummaryJson(const RouteSummary& summary, int skipped_scenes = 0);
 std::string routeMarkdown(const std::vector<RouteSceneResult>& results, const RouteSummary& s);
 
 }  // namespace novelty_detection

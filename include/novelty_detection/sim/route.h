@@ -15,7 +15,7 @@
 // reference sweep is taken where a current one is. The sequence: the robot starts between two
 // route poses and moves on towards the route's farther end by current_step_m per sweep; an
 // object (box, cylinder or superellipsoid) stands 1.5-5 m ahead of it for the whole sequence;
-// a person walks towards the robot on the other side, at least 0.5 m from its path,
+// a person walks towards the robot on the other side, at least 0.25 m beside its path,
 // person_step_m per sweep, from 5-7 m ahead (less in a small room), and is absent from sweeps
 // where it would stand outside the free space or in furniture.
 #pragma once
@@ -55,6 +55,8 @@ struct RouteSweep {
   Cloud cloud;  ///< world frame; sensor_origin_/orientation_ = its sensor pose
   Eigen::Isometry3d T_world_sensor = Eigen::Isometry3d::Identity();
   std::vector<int> labels;  ///< per point: 0 static, kStayingObjectId, kWalkingPersonId
+  std::vector<LaserLine> lines;                          ///< the raw lines (for LaserScan output)
+  Eigen::Vector3d base_pose = Eigen::Vector3d::Zero();  ///< robot base (x, y, yaw) on the floor
 };
 
 struct RouteScene {
