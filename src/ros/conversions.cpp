@@ -7,8 +7,20 @@
 #include <stdexcept>
 #include <string>
 
+#include "novelty_detection/ros/result_messages.h"
+
 namespace novelty_detection {
 namespace {
+
+// rviz's RGB8 colour: 0x00RRGGBB in the bytes of a FLOAT32 field named rgb.
+std::uint32_t packedColour(int label) {
+  if (label <= 0) return 0x999999u;  // not novel: grey
+  const std_msgs::ColorRGBA c = segmentColour(label);
+  auto byte = [](float v) {
+    return static_cast<std::uint32_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+  };
+  return (byte(c.r) << 16) | (byte(c.g) << 8) | byte(c.b);
+}
 
 bool hostIsBigEndian() {
   const std::uint16_t one = 1;
@@ -115,8 +127,9 @@ sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::ve
   out.fields = {makeField("x", 0, sensor_msgs::PointField::FLOAT32),
                 makeField("y", 4, sensor_msgs::PointField::FLOAT32),
                 makeField("z", 8, sensor_msgs::PointField::FLOAT32),
-                makeField("label", 12, sensor_msgs::PointField::UINT32)};
-  out.point_step = 16;
+                makeField("label", 12, sensor_msgs::PointField::UINT32),
+                makeField("rgb", 16, sensor_msgs::PointField::FLOAT32)};
+  out.point_step = 20;
   out.is_bigendian = hostIsBigEndian();
   std::size_t count = 0;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -136,6 +149,8 @@ sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::ve
     std::memcpy(p + 4, &q.y, 4);
     std::memcpy(p + 8, &q.z, 4);
     std::memcpy(p + 12, &label, 4);
+    const std::uint32_t rgb = packedColour(labels[i]);
+    std::memcpy(p + 16, &rgb, 4);
     dense = dense && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
     p += out.point_step;
   }

@@ -13,6 +13,7 @@
 #include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
+#include "novelty_detection/preprocess/voxel_filter.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/novelty_detector_nodelet.h"
 #include "novelty_detection/ros/ros_params.h"
@@ -40,9 +41,24 @@ std::string NoveltyDetectorNodelet::setReferenceFrom(const std::string& path) {
   }
   reference_->setMap(map.cloud, map.views);
   resetTracks();
+  publishReferenceDisplay(map.cloud);
   const std::size_t sweeps = map.views.empty() ? 1 : map.views.origins.size();
   return std::to_string(map.cloud.size()) + " points, " + std::to_string(sweeps) +
          (sweeps == 1 ? " sweep" : " sweeps") + ", viewpoint: " + how;
+}
+
+void NoveltyDetectorNodelet::publishReferenceDisplay(const Cloud& map) {
+  if (!node_params_.publish_reference) return;
+  std_msgs::Header header;
+  header.frame_id = node_params_.fixed_frame;
+  header.stamp = ros::Time::now();
+  try {
+    const double leaf = node_params_.reference_display_voxel_m;
+    reference_pub_.publish(toPointCloud2(leaf > 0.0 ? voxelDownsample(map, leaf) : map, header));
+  } catch (const std::exception& e) {
+    // Display only: the detection goes on with the map.
+    NODELET_WARN("cannot publish the reference for display: %s", errorText(e).c_str());
+  }
 }
 
 LoadLimits NoveltyDetectorNodelet::referenceLimits() const {

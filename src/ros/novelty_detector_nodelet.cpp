@@ -21,6 +21,7 @@
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
 #include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/operator_display.h"
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/ros_params.h"
 
@@ -108,7 +109,10 @@ void NoveltyDetectorNodelet::onInit() {
   disappeared_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("disappeared_cloud", 1);
   labelled_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("labelled_cloud", 1);
   superquadrics_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("superquadrics", 1, true);
-  gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
+  labels_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("novelty_labels", 1, true);
+  if (node_params_.display_gaussians)
+    gaussians_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("gaussians", 1, true);
+  reference_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("reference_cloud", 1, true);
   novelties_pub_ = pnh.advertise<NoveltyArray>("novelties", 10);
   confirmed_pub_ = pnh.advertise<NoveltyArray>("confirmed_novelties", 10);
 
@@ -300,6 +304,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
             "and ~sensor_frame is not set)");
       reference_->setMap(cloud);
       resetTracks();
+      publishReferenceDisplay(cloud);
       NODELET_INFO("captured the sweep at %.3f as the reference (%zu points)", header.stamp.toSec(),
                    cloud.size());
     } catch (const std::exception& e) {
@@ -338,7 +343,10 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
       labelled_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, false));
     }
     superquadrics_pub_.publish(superquadricMarkers(result, header));
-    gaussians_pub_.publish(gaussianMarkers(result, header));
+    labels_pub_.publish(noveltyLabelMarkers(array));
+    if (node_params_.display_gaussians)
+      gaussians_pub_.publish(
+          gaussianMarkers(result, gaussiansHoldingNovelPoints(result, cloud), header));
 
     std::size_t novel_points = 0;
     for (int l : result.labels) novel_points += l > 0;

@@ -229,6 +229,7 @@ visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
 }
 
 visualization_msgs::MarkerArray gaussianMarkers(const Result& result,
+                                                const std::vector<bool>& highlighted,
                                                 const std_msgs::Header& header) {
   visualization_msgs::MarkerArray out;
   out.markers.push_back(deleteAll(header));
@@ -240,7 +241,7 @@ visualization_msgs::MarkerArray gaussianMarkers(const Result& result,
     Eigen::Matrix3d axes = es.eigenvectors();
     if (axes.determinant() < 0) axes.col(2) = -axes.col(2);  // a proper rotation
     const Eigen::Vector3d sigma = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-    const bool novel = i < result.novel_gaussian.size() && result.novel_gaussian[i];
+    const bool novel = i < highlighted.size() && highlighted[i];
     visualization_msgs::Marker m;
     m.header = header;
     m.ns = novel ? "novel_gaussians" : "gaussians";

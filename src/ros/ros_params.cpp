@@ -143,6 +143,13 @@ void NodeParams::validate() const {
     throw std::invalid_argument("parameter 'tile_cache_size' must be >= 1, got " +
                                 std::to_string(tile_cache_size));
   }
+  if (!(reference_display_voxel_m == 0.0 ||
+        (reference_display_voxel_m >= 0.001 && reference_display_voxel_m <= 100.0))) {
+    throw std::invalid_argument(
+        "parameter 'reference_display_voxel_m' must be 0 (every point) or in [0.001, 100], "
+        "got " +
+        std::to_string(reference_display_voxel_m));
+  }
   if (input_queue_size < 1) {
     throw std::invalid_argument("parameter 'input_queue_size' must be >= 1, got " +
                                 std::to_string(input_queue_size));

@@ -7,8 +7,10 @@
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <unistd.h>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -23,6 +25,7 @@
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/sim/scene.h"
 #include "test_helpers.h"
 
@@ -163,6 +166,87 @@ TEST_F(NoveltyScenes, InsertedBoxIsFoundWithItsPoints) {
   EXPECT_GE(hit, 0.7 * found) << "precision " << double(hit) / std::max<std::size_t>(found, 1);
 }
 
+// What an operator sees: the reference map (latched, thinned), one text per novelty naming
+// its id, state, size and points in its colour, the novel points in that colour, and no
+// Gaussians unless asked for.
+TEST_F(NoveltyScenes, OperatorDisplayFollowsTheResult) {
+  visualization_msgs::MarkerArray::ConstPtr texts;
+  sensor_msgs::PointCloud2::ConstPtr reference, novel;
+  auto texts_sub = nh_.subscribe<visualization_msgs::MarkerArray>(
+      "/detector/novelty_labels", 5, [&](const visualization_msgs::MarkerArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        texts = m;
+      });
+  auto reference_sub = nh_.subscribe<sensor_msgs::PointCloud2>(
+      "/detector/reference_cloud", 5, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        reference = m;
+      });
+  auto novel_sub = nh_.subscribe<sensor_msgs::PointCloud2>(
+      "/detector/novelty_cloud", 5, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        novel = m;
+      });
+  ASSERT_TRUE(waitFor(
+      [&] { return texts_sub.getNumPublishers() > 0 && novel_sub.getNumPublishers() > 0; }, 30.0));
+  sim::SceneConfig cfg;
+  cfg.seed = 3;
+  cfg.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair scene = sim::generateScenePair(cfg);
+  const ros::Time before = ros::Time::now();
+  run(scene);
+  ASSERT_TRUE(waitFor(
+      [&] {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return texts && novel && reference && novelties_ && reference->header.stamp >= before &&
+               !texts->markers.empty() &&
+               texts->markers[0].header.stamp == novelties_->header.stamp &&
+               novel->header.stamp == novelties_->header.stamp;
+      },
+      30.0));
+  std::lock_guard<std::mutex> lock(mutex_);
+  // The map, thinned to 5 cm voxels: fewer points than the map, none outside its box.
+  const Cloud map = fromPointCloud2(*reference);
+  EXPECT_EQ(reference->header.frame_id, "map");
+  EXPECT_GT(map.size(), scene.reference.size() / 20);
+  EXPECT_LT(map.size(), scene.reference.size());
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+  for (const auto& p : scene.reference) {
+    if (!std::isfinite(p.x)) continue;
+    lo = lo.cwiseMin(p.getVector3fMap());
+    hi = hi.cwiseMax(p.getVector3fMap());
+  }
+  for (const auto& p : map) {
+    EXPECT_TRUE((p.getVector3fMap().array() >= lo.array() - 1e-3f).all() &&
+                (p.getVector3fMap().array() <= hi.array() + 1e-3f).all());
+  }
+  // One text per novelty, above its box, "#id new: ..." (the first sighting).
+  ASSERT_GE(novelties_->novelties.size(), 1u);
+  ASSERT_EQ(texts->markers.size(), 1 + novelties_->novelties.size());
+  for (std::size_t i = 0; i < novelties_->novelties.size(); ++i) {
+    const Novelty& n = novelties_->novelties[i];
+    const auto& t = texts->markers[i + 1];
+    EXPECT_EQ(t.type, visualization_msgs::Marker::TEXT_VIEW_FACING);
+    EXPECT_EQ(t.text.rfind("#" + std::to_string(n.id) + " new: ", 0), 0u) << t.text;
+    EXPECT_NE(t.text.find(std::to_string(n.points) + " pts"), std::string::npos) << t.text;
+    EXPECT_GT(t.pose.position.z, n.bbox_max.z);
+    EXPECT_FLOAT_EQ(t.color.g, segmentColour(n.id).g);
+  }
+  // The novel points carry their novelty's colour.
+  ASSERT_EQ(novel->fields.size(), 5u);
+  for (std::size_t i = 0; i < novel->width * novel->height; ++i) {
+    std::uint32_t l, rgb;
+    std::memcpy(&l, novel->data.data() + i * novel->point_step + 12, 4);
+    std::memcpy(&rgb, novel->data.data() + i * novel->point_step + 16, 4);
+    const auto c = segmentColour(static_cast<int>(l));
+    ASSERT_EQ(rgb & 0xff, static_cast<std::uint32_t>(std::lround(c.b * 255)));
+  }
+  // Gaussians are off by default: nobody publishes them.
+  ros::master::V_TopicInfo topics;
+  ASSERT_TRUE(ros::master::getTopics(topics));
+  for (const auto& t : topics) EXPECT_NE(t.name, "/detector/gaussians");
+}
+
 TEST_F(NoveltyScenes, UnchangedSceneHasNoNovelty) {
   sim::SceneConfig cfg;
   cfg.seed = 3;
@@ -200,7 +284,7 @@ TEST_F(NoveltyScenes, RemovedBoxIsPublishedAsDisappeared) {
   std::lock_guard<std::mutex> lock(mutex_);
   ASSERT_TRUE(disappeared_ && novelties_);
   const auto& m = *disappeared_;
-  ASSERT_EQ(m.fields.size(), 4u);  // x y z label
+  ASSERT_EQ(m.fields.size(), 5u);  // x y z label rgb
   std::size_t hit = 0;
   for (std::size_t i = 0; i < m.width * m.height; ++i) {
     float xyz[3];

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "novelty_detection/ros/conversions.h"
+#include "novelty_detection/ros/result_messages.h"
 
 using novelty_detection::Cloud;
 using novelty_detection::fromPointCloud2;
@@ -149,7 +150,24 @@ TEST(Conversions, LabelledCloudRoundTrips) {
     uint32_t label;
     std::memcpy(&label, novel.data.data() + k * novel.point_step + 12, 4);
     EXPECT_EQ(static_cast<int>(label), labels[expected_index[k]]);
+    // Each segment's points in its own colour, the colour of its superquadrics.
+    uint32_t rgb;
+    std::memcpy(&rgb, novel.data.data() + k * novel.point_step + 16, 4);
+    const std_msgs::ColorRGBA c = novelty_detection::segmentColour(static_cast<int>(label));
+    EXPECT_EQ(rgb >> 16, static_cast<uint32_t>(std::lround(c.r * 255)));
+    EXPECT_EQ((rgb >> 8) & 0xff, static_cast<uint32_t>(std::lround(c.g * 255)));
+    EXPECT_EQ(rgb & 0xff, static_cast<uint32_t>(std::lround(c.b * 255)));
   }
+  ASSERT_EQ(novel.fields.size(), 5u);
+  EXPECT_EQ(novel.fields[4].name, "rgb");
+  EXPECT_EQ(novel.fields[4].offset, 16u);
+  uint32_t grey;
+  std::memcpy(&grey, all.data.data() + 0 * all.point_step + 16, 4);  // label 0
+  EXPECT_EQ(grey, 0x999999u);
+  uint32_t one, two;
+  std::memcpy(&one, novel.data.data() + 0 * novel.point_step + 16, 4);
+  std::memcpy(&two, novel.data.data() + 1 * novel.point_step + 16, 4);
+  EXPECT_NE(one, two);  // segments 1 and 2 differ
   EXPECT_THROW(toLabelledPointCloud2(cloud, {1, 2}, header, false), std::invalid_argument);
 }
 

@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "novelty_detection/ros/node_params.h"
+#include "novelty_detection/ros/operator_display.h"
 #include "novelty_detection/ros/result_messages.h"
 #include "novelty_detection/ros/superquadric_mesh.h"
 #include "novelty_detection/ros/tiled_reference.h"
@@ -75,13 +76,103 @@ TEST(ResultMessages, MarkersStartWithDeleteAllAndFollowTheResult) {
   EXPECT_EQ(sqm.markers[0].action, visualization_msgs::Marker::DELETEALL);
   EXPECT_EQ(sqm.markers[1].type, visualization_msgs::Marker::TRIANGLE_LIST);
   EXPECT_EQ(sqm.markers[1].points.size() % 3, 0u);
-  const auto gm = gaussianMarkers(r, h);
+  const auto gm = gaussianMarkers(r, r.novel_gaussian, h);
   ASSERT_EQ(gm.markers.size(), 4u);
   EXPECT_EQ(gm.markers[2].ns, "novel_gaussians");
   EXPECT_EQ(gm.markers[1].ns, "gaussians");
   // 2-sigma ellipsoid: diameter 4 sigma along each principal axis (any order).
   const auto& s = gm.markers[1].scale;
   EXPECT_NEAR(s.x + s.y + s.z, 4 * (0.2 + 0.1 + 0.01), 1e-9);
+}
+
+// Two novel Gaussians, one holding labelled points and one whose points were all turned
+// down, and a non-novel one holding a labelled point: only the first is shown red.
+TEST(OperatorDisplay, OnlyNovelGaussiansHoldingLabelledPointsAreRed) {
+  Result r;
+  Gaussian a, b, c;
+  a.weight = b.weight = c.weight = 1.0 / 3;
+  a.mean = Eigen::Vector3d(0, 0, 0);
+  b.mean = Eigen::Vector3d(5, 0, 0);
+  c.mean = Eigen::Vector3d(0, 5, 0);
+  a.cov = b.cov = c.cov = Eigen::Matrix3d::Identity() * 0.01;
+  r.current_gmm.components = {a, b, c};
+  r.novel_gaussian = {true, true, false};
+  Cloud cloud;
+  cloud.push_back(PointT(0.05f, 0.0f, 0.0f));  // a's, labelled
+  cloud.push_back(PointT(5.0f, 0.05f, 0.0f));  // b's, not labelled
+  cloud.push_back(PointT(0.0f, 4.95f, 0.0f));  // c's, labelled (not novel)
+  cloud.push_back(PointT(NAN, NAN, NAN));      // labelled but not a point
+  r.labels = {1, 0, 2, 1};
+  const std::vector<bool> red = gaussiansHoldingNovelPoints(r, cloud);
+  EXPECT_EQ(red, (std::vector<bool>{true, false, false}));
+  std_msgs::Header h;
+  const auto gm = gaussianMarkers(r, red, h);
+  ASSERT_EQ(gm.markers.size(), 4u);
+  EXPECT_EQ(gm.markers[1].ns, "novel_gaussians");
+  EXPECT_EQ(gm.markers[2].ns, "gaussians");
+  EXPECT_EQ(gm.markers[3].ns, "gaussians");
+  // No labelled point: nothing is red whatever the selection said.
+  r.labels = {0, 0, 0, 0};
+  EXPECT_EQ(gaussiansHoldingNovelPoints(r, cloud), (std::vector<bool>(3, false)));
+  // Labels that do not match the cloud: nothing is claimed.
+  r.labels = {1};
+  EXPECT_EQ(gaussiansHoldingNovelPoints(r, cloud), (std::vector<bool>(3, false)));
+}
+
+TEST(OperatorDisplay, TextPerNoveltyAndOutlinePerDisappearance) {
+  NoveltyArray array;
+  array.header.frame_id = "map";
+  Novelty n;
+  n.id = 3;
+  n.points = 252;
+  n.bbox_min.x = 5.5;
+  n.bbox_min.y = -0.7;
+  n.bbox_min.z = 0.1;
+  n.bbox_max.x = 5.9;
+  n.bbox_max.y = 0.1;
+  n.bbox_max.z = 0.7;
+  array.novelties.push_back(n);
+  n.id = 4;
+  n.confirmed = true;
+  n.times_seen = 4;
+  array.novelties.push_back(n);
+  Novelty bad = n;
+  bad.bbox_max.x = NAN;  // a box that is not one gets no marker
+  array.novelties.push_back(bad);
+  Novelty gone = n;
+  gone.id = 1;
+  gone.points = 90;
+  array.disappeared.push_back(gone);
+  EXPECT_EQ(noveltyLabel(array.novelties[0], false), "#3 new: 0.40 x 0.80 x 0.60 m, 252 pts");
+  EXPECT_EQ(noveltyLabel(array.novelties[1], false),
+            "#4 confirmed (seen 4): 0.40 x 0.80 x 0.60 m, 252 pts");
+  EXPECT_EQ(noveltyLabel(gone, true), "#1 gone: 0.40 x 0.80 x 0.60 m, 90 pts");
+
+  const auto m = noveltyLabelMarkers(array);
+  ASSERT_EQ(m.markers.size(), 5u);  // DELETEALL, 2 texts, a disappearance's text and box
+  EXPECT_EQ(m.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(m.markers[1].ns, "novelty_text");
+  EXPECT_EQ(m.markers[1].type, visualization_msgs::Marker::TEXT_VIEW_FACING);
+  EXPECT_NEAR(m.markers[1].pose.position.x, 5.7, 1e-9);
+  EXPECT_NEAR(m.markers[1].pose.position.z, 0.85, 1e-9);  // 0.15 m above the box
+  // The text takes the colour of its segment's points and superquadrics.
+  EXPECT_FLOAT_EQ(m.markers[2].color.r, segmentColour(4).r);
+  EXPECT_FLOAT_EQ(m.markers[2].color.g, segmentColour(4).g);
+  EXPECT_EQ(m.markers[3].ns, "disappeared_text");
+  const auto& box = m.markers[4];
+  EXPECT_EQ(box.ns, "disappeared_box");
+  EXPECT_EQ(box.type, visualization_msgs::Marker::LINE_LIST);
+  ASSERT_EQ(box.points.size(), 24u);  // 12 edges
+  // Every edge runs along one axis, the length of the box along it.
+  double total = 0.0;
+  for (std::size_t i = 0; i < 24; i += 2) {
+    const double dx = std::abs(box.points[i + 1].x - box.points[i].x);
+    const double dy = std::abs(box.points[i + 1].y - box.points[i].y);
+    const double dz = std::abs(box.points[i + 1].z - box.points[i].z);
+    EXPECT_EQ((dx > 0) + (dy > 0) + (dz > 0), 1);
+    total += dx + dy + dz;
+  }
+  EXPECT_NEAR(total, 4 * (0.4 + 0.8 + 0.6), 1e-9);
 }
 
 TEST(TiledReference, CachesOneModelPerSetOfTiles) {
@@ -134,5 +225,11 @@ TEST(NodeParams, MarginAndTileSizeOutOfRangeAreRefused) {
   p.tile_size_m = 1e-30;
   EXPECT_THROW(p.validate(), std::invalid_argument);
   p.tile_size_m = 0.0;  // no tiles
+  EXPECT_NO_THROW(p.validate());
+  for (double bad : {-0.05, 1e-4, 1e3, double(NAN)}) {
+    p.reference_display_voxel_m = bad;
+    EXPECT_THROW(p.validate(), std::invalid_argument) << bad;
+  }
+  p.reference_display_voxel_m = 0.0;  // every point
   EXPECT_NO_THROW(p.validate());
 }

@@ -19,6 +19,9 @@ struct NodeParams {
   int tile_cache_size = 8;
   int input_queue_size = 5;
   std::string save_directory;
+  bool publish_reference = true;
+  double reference_display_voxel_m = 0.05;
+  bool display_gaussians = false;
 
   template <class F>
   void visit(F&& f) {
@@ -38,6 +41,14 @@ struct NodeParams {
       "~save_reference writes only inside this directory (a relative path is taken inside it; "
       "'..' and symlinks that lead out are refused); empty: $ROS_HOME/novelty_detection "
       "(~/.ros/novelty_detection)");
+    f("publish_reference", publish_reference,
+      "publish the reference map, latched, on ~reference_cloud for display whenever it is set");
+    f("reference_display_voxel_m", reference_display_voxel_m,
+      "~reference_cloud keeps one point per voxel of this edge [m] (display only; the "
+      "detector uses every point); 0: every point");
+    f("display_gaussians", display_gaussians,
+      "publish the current sweep's Gaussians on ~gaussians (red: the novel ones that hold "
+      "labelled points)");
   }
   /// Throws std::invalid_argument naming the parameter.
   void validate() const;

@@ -38,9 +38,10 @@ namespace novelty_detection {
 /// Subscribes ~input (PointCloud2 sweeps), waits for their transform into ~fixed_frame,
 /// hands the newest sweep to a worker thread (depth 1: a sweep arriving while one waits
 /// replaces it and is counted as dropped) that compares it with the reference map and
-/// publishes ~novelty_cloud, ~disappeared_cloud, ~labelled_cloud, ~superquadrics, ~gaussians
-/// and ~novelties; novelties and disappearances are tracked over the sweeps (tracking/*) and
-/// the confirmed ones published on ~confirmed_novelties.
+/// publishes ~novelty_cloud, ~disappeared_cloud, ~labelled_cloud, ~superquadrics,
+/// ~novelty_labels, ~gaussians (when ~display_gaussians) and ~novelties; novelties and
+/// disappearances are tracked over the sweeps (tracking/*) and the confirmed ones published
+/// on ~confirmed_novelties. The reference map is published on ~reference_cloud for display.
 /// Services: ~capture_reference, ~set_reference, ~save_reference, ~detect,
 /// ~set_ignore_regions, served on their own thread.
 class NoveltyDetectorNodelet : public nodelet::Nodelet {
@@ -79,6 +80,9 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   /// (0, 0, 0) with preprocess/sensor_frame, else the file's viewpoint; a directory's are
   /// its sweeps' viewpoints. Throws what loadReference and TiledReference::setMap throw.
   std::string setReferenceFrom(const std::string& path);
+  /// Publishes the map (thinned to ~reference_display_voxel_m) on ~reference_cloud, latched,
+  /// when ~publish_reference is set.
+  void publishReferenceDisplay(const Cloud& map);
   /// A reference file may hold what a sweep may: preprocess/max_points, checked on its header.
   LoadLimits referenceLimits() const;
   /// A copy of the parameters (live tuning may change them from another thread).
@@ -112,7 +116,8 @@ class NoveltyDetectorNodelet : public nodelet::Nodelet {
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> tf_filter_;
   ros::Subscriber input_sub_;
   ros::Publisher status_pub_, novelty_cloud_pub_, disappeared_cloud_pub_, labelled_cloud_pub_,
-      superquadrics_pub_, gaussians_pub_, novelties_pub_, confirmed_pub_;
+      superquadrics_pub_, gaussians_pub_, novelties_pub_, confirmed_pub_, labels_pub_,
+      reference_pub_;
   ros::ServiceServer capture_srv_, set_srv_, save_srv_, detect_srv_, ignore_srv_;
   ros::CallbackQueue service_queue_;  // the services' own, spun by service_spinner_
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;

@@ -38,8 +38,11 @@ visualization_msgs::MarkerArray superquadricMarkers(const Result& result,
 
 /// DELETEALL, then one SPHERE per Gaussian of the current mixture, at its mean, oriented
 /// along its covariance's eigenvectors and scaled to its 2-sigma ellipsoid (diameter 4
-/// sigma per axis); novel Gaussians red and opaque, the others grey and translucent.
+/// sigma per axis); the `highlighted` ones (operator_display.h: the novel Gaussians that
+/// hold labelled points) red in namespace "novel_gaussians", the others grey and
+/// translucent in "gaussians".
 visualization_msgs::MarkerArray gaussianMarkers(const Result& result,
+                                                const std::vector<bool>& highlighted,
                                                 const std_msgs::Header& header);
 
 }  // namespace novelty_detection
