@@ -24,6 +24,15 @@ std_msgs::ColorRGBA disappearedColour(float alpha) {
   return c;
 }
 
+// Text in a light tint of the segment's colour: readable on rviz's dark background.
+std_msgs::ColorRGBA textColour(int segment) {
+  std_msgs::ColorRGBA c = segmentColour(segment, 1.0f);
+  c.r = 0.5f * (c.r + 1.0f);
+  c.g = 0.5f * (c.g + 1.0f);
+  c.b = 0.5f * (c.b + 1.0f);
+  return c;
+}
+
 visualization_msgs::Marker baseMarker(const std_msgs::Header& header, const char* ns, int id,
                                       int type) {
   visualization_msgs::Marker m;
@@ -45,7 +54,7 @@ visualization_msgs::Marker textMarker(const Novelty& n, bool disappeared,
   m.pose.position.y = 0.5 * (n.bbox_min.y + n.bbox_max.y);
   m.pose.position.z = n.bbox_max.z + kTextLiftM;
   m.scale.z = kTextHeightM;
-  m.color = disappeared ? disappearedColour(1.0f) : segmentColour(n.id, 1.0f);
+  m.color = disappeared ? disappearedColour(1.0f) : textColour(n.id);
   m.text = noveltyLabel(n, disappeared);
   return m;
 }

@@ -230,7 +230,7 @@ TEST_F(NoveltyScenes, OperatorDisplayFollowsTheResult) {
     EXPECT_EQ(t.text.rfind("#" + std::to_string(n.id) + " new: ", 0), 0u) << t.text;
     EXPECT_NE(t.text.find(std::to_string(n.points) + " pts"), std::string::npos) << t.text;
     EXPECT_GT(t.pose.position.z, n.bbox_max.z);
-    EXPECT_FLOAT_EQ(t.color.g, segmentColour(n.id).g);
+    EXPECT_FLOAT_EQ(t.color.g, 0.5f * (segmentColour(n.id).g + 1.0f));
   }
   // The novel points carry their novelty's colour.
   ASSERT_EQ(novel->fields.size(), 5u);

@@ -156,8 +156,9 @@ TEST(OperatorDisplay, TextPerNoveltyAndOutlinePerDisappearance) {
   EXPECT_NEAR(m.markers[1].pose.position.x, 5.7, 1e-9);
   EXPECT_NEAR(m.markers[1].pose.position.z, 0.85, 1e-9);  // 0.15 m above the box
   // The text takes the colour of its segment's points and superquadrics.
-  EXPECT_FLOAT_EQ(m.markers[2].color.r, segmentColour(4).r);
-  EXPECT_FLOAT_EQ(m.markers[2].color.g, segmentColour(4).g);
+  // (a light tint of it, readable on a dark background).
+  EXPECT_FLOAT_EQ(m.markers[2].color.r, 0.5f * (segmentColour(4).r + 1.0f));
+  EXPECT_FLOAT_EQ(m.markers[2].color.g, 0.5f * (segmentColour(4).g + 1.0f));
   EXPECT_EQ(m.markers[3].ns, "disappeared_text");
   const auto& box = m.markers[4];
   EXPECT_EQ(box.ns, "disappeared_box");

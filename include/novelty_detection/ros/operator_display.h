@@ -19,9 +19,9 @@ namespace novelty_detection {
 std::string noveltyLabel(const Novelty& novelty, bool disappeared);
 
 /// DELETEALL, then per novelty a TEXT_VIEW_FACING marker (namespace "novelty_text", id =
-/// its index) 0.15 m above the top of its box, in its segment colour (segmentColour), and
-/// per disappearance its text (namespace "disappeared_text", dark red) and the outline of
-/// its box as a LINE_LIST (namespace "disappeared_box", 12 edges).
+/// its index) 0.15 m above the top of its box, in a light tint of its segment colour
+/// (segmentColour), and per disappearance its text (namespace "disappeared_text", dark red) and the
+/// outline of its box as a LINE_LIST (namespace "disappeared_box", 12 edges).
 visualization_msgs::MarkerArray noveltyLabelMarkers(const NoveltyArray& array);
 
 /// Per Gaussian of result.current_gmm: true when the selection marked it novel and it is
