@@ -181,10 +181,12 @@ sensor_msgs::PointCloud2 toPointCloud2(const Cloud& cloud, const std_msgs::Heade
                 makeField("z", 8, sensor_msgs::PointField::FLOAT32)};
   out.point_step = 12;
   out.is_bigendian = hostIsBigEndian();
-  out.height = 1;
-  out.width = static_cast<std::uint32_t>(cloud.size());
+  const bool organised =
+      cloud.height > 1 && static_cast<std::size_t>(cloud.width) * cloud.height == cloud.size();
+  out.height = organised ? cloud.height : 1;
+  out.width = organised ? cloud.width : static_cast<std::uint32_t>(cloud.size());
   out.row_step = out.point_step * out.width;
-  out.data.resize(out.row_step);
+  out.data.resize(static_cast<std::size_t>(out.row_step) * out.height);
   bool dense = true;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const PointT& q = cloud[i];

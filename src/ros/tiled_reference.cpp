@@ -118,13 +118,19 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
       return cache_.front().second;
     }
   }
+  // Every tile: the map as given, with its layout (an organised depth-camera map keeps its
+  // image grid, which the up estimate, the noise model and the neighbours use) and its NaN
+  // points; otherwise the crop of its finite points in those tiles.
+  const bool whole = key.size() == tiles_.size();
+  const std::shared_ptr<const Cloud> whole_map = whole ? map_ : nullptr;
+  const std::shared_ptr<const ReferenceViews> whole_views = whole ? views_ : nullptr;
   Cloud crop;
   // The map's viewpoint (if known) feeds the pipeline's free-space check.
   crop.sensor_origin_ = map_->sensor_origin_;
   crop.sensor_orientation_ = map_->sensor_orientation_;
   ReferenceViews crop_views;  // the sweeps the crop holds points of, renumbered
   std::vector<std::int64_t> renumbered(views_->origins.size(), -1);
-  for (const auto& t : key) {
+  for (const auto& t : whole ? TileSet{} : key) {
     for (int i : tiles_.at(t)) {
       crop.push_back((*map_)[i]);
       if (views_->empty()) continue;
@@ -144,7 +150,10 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
   const std::uint64_t generation = generation_;
   lock.unlock();
   auto pipeline = std::make_shared<Pipeline>(params);
-  pipeline->setReference(crop, crop_views);
+  if (whole)
+    pipeline->setReference(*whole_map, *whole_views);
+  else
+    pipeline->setReference(crop, crop_views);
   lock.lock();
   ++models_built_;
   if (generation != generation_) return pipeline;

@@ -26,7 +26,8 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg);
 sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::vector<int>& labels,
                                                const std_msgs::Header& header, bool only_labelled);
 
-/// Plain x, y, z PointCloud2 of a Cloud (for the reference map and assembled sweeps).
+/// Plain x, y, z PointCloud2 of a Cloud (for the reference map, assembled sweeps and cloud
+/// files); an organised cloud (height > 1, width x height points) keeps its layout.
 sensor_msgs::PointCloud2 toPointCloud2(const Cloud& cloud, const std_msgs::Header& header);
 
 /// The file's cloud with its stored viewpoint (PCD VIEWPOINT) as sensor_origin_ and
