@@ -343,7 +343,7 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
       labelled_cloud_pub_.publish(toLabelledPointCloud2(cloud, result.labels, header, false));
     }
     superquadrics_pub_.publish(superquadricMarkers(result, header));
-    labels_pub_.publish(noveltyLabelMarkers(array));
+    labels_pub_.publish(noveltyLabelMarkers(array, result.up));
     if (node_params_.display_gaussians)
       gaussians_pub_.publish(
           gaussianMarkers(result, gaussiansHoldingNovelPoints(result, cloud), header));

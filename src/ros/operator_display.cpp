@@ -12,8 +12,9 @@
 namespace novelty_detection {
 namespace {
 
-constexpr double kTextHeightM = 0.18;  // height of an upper-case letter in rviz [m]
-constexpr double kTextLiftM = 0.15;    // text above the top of the box [m]
+// Letter height: a quarter of the change's largest extent, within [5 cm, 18 cm], so that a
+// tabletop object's label does not hide the table and a room's stays readable.
+constexpr double kMinTextHeightM = 0.05, kMaxTextHeightM = 0.18;
 
 std_msgs::ColorRGBA disappearedColour(float alpha) {
   std_msgs::ColorRGBA c;
@@ -45,15 +46,22 @@ visualization_msgs::Marker baseMarker(const std_msgs::Header& header, const char
   return m;
 }
 
-visualization_msgs::Marker textMarker(const Novelty& n, bool disappeared,
+visualization_msgs::Marker textMarker(const Novelty& n, bool disappeared, const Eigen::Vector3d& up,
                                       const std_msgs::Header& header, int id) {
   visualization_msgs::Marker m =
       baseMarker(header, disappeared ? "disappeared_text" : "novelty_text", id,
                  visualization_msgs::Marker::TEXT_VIEW_FACING);
-  m.pose.position.x = 0.5 * (n.bbox_min.x + n.bbox_max.x);
-  m.pose.position.y = 0.5 * (n.bbox_min.y + n.bbox_max.y);
-  m.pose.position.z = n.bbox_max.z + kTextLiftM;
-  m.scale.z = kTextHeightM;
+  const Eigen::Vector3d lo(n.bbox_min.x, n.bbox_min.y, n.bbox_min.z);
+  const Eigen::Vector3d hi(n.bbox_max.x, n.bbox_max.y, n.bbox_max.z);
+  m.scale.z = std::clamp(0.25 * (hi - lo).maxCoeff(), kMinTextHeightM, kMaxTextHeightM);
+  // One letter height above the box along up (its half extent along up: the box's support
+  // in that direction); a disappearance's below it, so that a new object standing where an
+  // old one stood keeps both labels readable.
+  const double half = 0.5 * (hi - lo).cwiseAbs().dot(up.cwiseAbs());
+  const Eigen::Vector3d at = 0.5 * (lo + hi) + (disappeared ? -1.0 : 1.0) * (half + m.scale.z) * up;
+  m.pose.position.x = at.x();
+  m.pose.position.y = at.y();
+  m.pose.position.z = at.z();
   m.color = disappeared ? disappearedColour(1.0f) : textColour(n.id);
   m.text = noveltyLabel(n, disappeared);
   return m;
@@ -105,7 +113,10 @@ std::string noveltyLabel(const Novelty& n, bool disappeared) {
   return text;
 }
 
-visualization_msgs::MarkerArray noveltyLabelMarkers(const NoveltyArray& array) {
+visualization_msgs::MarkerArray noveltyLabelMarkers(const NoveltyArray& array,
+                                                    const Eigen::Vector3d& up) {
+  const Eigen::Vector3d u =
+      up.allFinite() && up.norm() > 1e-6 ? up.normalized() : Eigen::Vector3d::UnitZ();
   visualization_msgs::MarkerArray out;
   visualization_msgs::Marker clear;
   clear.header = array.header;
@@ -113,12 +124,13 @@ visualization_msgs::MarkerArray noveltyLabelMarkers(const NoveltyArray& array) {
   out.markers.push_back(clear);
   for (std::size_t i = 0; i < array.novelties.size(); ++i) {
     if (!finiteBox(array.novelties[i])) continue;
-    out.markers.push_back(textMarker(array.novelties[i], false, array.header, static_cast<int>(i)));
+    out.markers.push_back(
+        textMarker(array.novelties[i], false, u, array.header, static_cast<int>(i)));
   }
   for (std::size_t i = 0; i < array.disappeared.size(); ++i) {
     const Novelty& n = array.disappeared[i];
     if (!finiteBox(n)) continue;
-    out.markers.push_back(textMarker(n, true, array.header, static_cast<int>(i)));
+    out.markers.push_back(textMarker(n, true, u, array.header, static_cast<int>(i)));
     out.markers.push_back(boxOutline(n, array.header, static_cast<int>(i)));
   }
   return out;

@@ -154,12 +154,29 @@ TEST(OperatorDisplay, TextPerNoveltyAndOutlinePerDisappearance) {
   EXPECT_EQ(m.markers[1].ns, "novelty_text");
   EXPECT_EQ(m.markers[1].type, visualization_msgs::Marker::TEXT_VIEW_FACING);
   EXPECT_NEAR(m.markers[1].pose.position.x, 5.7, 1e-9);
-  EXPECT_NEAR(m.markers[1].pose.position.z, 0.85, 1e-9);  // 0.15 m above the box
+  // Letters a quarter of the largest extent high (0.8 m: 0.2, capped at 0.18), one letter
+  // above the box; a 12 cm tabletop object gets the 5 cm floor.
+  EXPECT_NEAR(m.markers[1].scale.z, 0.18, 1e-9);
+  EXPECT_NEAR(m.markers[1].pose.position.z, 0.7 + 0.18, 1e-9);
+  NoveltyArray small;
+  Novelty mug;
+  mug.bbox_max.x = mug.bbox_max.y = 0.08;
+  mug.bbox_max.z = 0.12;
+  small.novelties.push_back(mug);
+  const auto s = noveltyLabelMarkers(small);
+  ASSERT_EQ(s.markers.size(), 2u);
+  EXPECT_NEAR(s.markers[1].scale.z, 0.05, 1e-9);
+  EXPECT_NEAR(s.markers[1].pose.position.z, 0.17, 1e-9);
+  // Up along -y (a camera's optical frame): above is -y, beside the box's centre.
+  const auto cam = noveltyLabelMarkers(small, Eigen::Vector3d(0, -2, 0));
+  EXPECT_NEAR(cam.markers[1].pose.position.y, 0.04 - 0.04 - 0.05, 1e-9);
+  EXPECT_NEAR(cam.markers[1].pose.position.z, 0.06, 1e-9);
   // The text takes the colour of its segment's points and superquadrics.
   // (a light tint of it, readable on a dark background).
   EXPECT_FLOAT_EQ(m.markers[2].color.r, 0.5f * (segmentColour(4).r + 1.0f));
   EXPECT_FLOAT_EQ(m.markers[2].color.g, 0.5f * (segmentColour(4).g + 1.0f));
   EXPECT_EQ(m.markers[3].ns, "disappeared_text");
+  EXPECT_NEAR(m.markers[3].pose.position.z, 0.1 - 0.18, 1e-9);  // below its box
   const auto& box = m.markers[4];
   EXPECT_EQ(box.ns, "disappeared_box");
   EXPECT_EQ(box.type, visualization_msgs::Marker::LINE_LIST);

@@ -5,6 +5,8 @@
 
 #include <visualization_msgs/MarkerArray.h>
 
+#include <Eigen/Core>
+
 #include <string>
 #include <vector>
 
@@ -19,10 +21,13 @@ namespace novelty_detection {
 std::string noveltyLabel(const Novelty& novelty, bool disappeared);
 
 /// DELETEALL, then per novelty a TEXT_VIEW_FACING marker (namespace "novelty_text", id =
-/// its index) 0.15 m above the top of its box, in a light tint of its segment colour
-/// (segmentColour), and per disappearance its text (namespace "disappeared_text", dark red) and the
+/// its index), its letters a quarter of the box's largest extent high (5 to 18 cm), one
+/// letter height above its box along `up` (the detector's up, Result::up; +z when not a
+/// direction), in a light tint of its segment colour (segmentColour); per disappearance its
+/// text one letter height below its box (namespace "disappeared_text", dark red) and the
 /// outline of its box as a LINE_LIST (namespace "disappeared_box", 12 edges).
-visualization_msgs::MarkerArray noveltyLabelMarkers(const NoveltyArray& array);
+visualization_msgs::MarkerArray noveltyLabelMarkers(
+    const NoveltyArray& array, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ());
 
 /// Per Gaussian of result.current_gmm: true when the selection marked it novel and it is
 /// the most likely component (weight times density) of at least one labelled point
