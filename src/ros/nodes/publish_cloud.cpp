@@ -20,6 +20,14 @@ int main(int argc, char** argv) {
     ROS_FATAL("usage: publish_cloud FILE [_topic:=/sweep] [_frame_id:=map] [_rate:=1] [_count:=0]");
     return 2;
   }
+  // The file first: a bad one is refused at once, even before a master is up.
+  novelty_detection::Cloud cloud;
+  try {
+    cloud = novelty_detection::loadCloud(args[1]);
+  } catch (const std::exception& e) {
+    ROS_FATAL("publish_cloud: %s", e.what());
+    return 1;
+  }
   ros::NodeHandle nh, pnh("~");
   const std::string topic = pnh.param<std::string>("topic", "/sweep");
   const std::string frame_id = pnh.param<std::string>("frame_id", "map");
@@ -28,13 +36,6 @@ int main(int argc, char** argv) {
   if (!(rate > 0.0) || rate > 1000.0 || count < 0 || frame_id.empty()) {
     ROS_FATAL("publish_cloud: ~rate must be in (0, 1000], ~count >= 0, ~frame_id not empty");
     return 2;
-  }
-  novelty_detection::Cloud cloud;
-  try {
-    cloud = novelty_detection::loadCloud(args[1]);
-  } catch (const std::exception& e) {
-    ROS_FATAL("publish_cloud: %s", e.what());
-    return 1;
   }
   ros::Publisher pub = nh.advertise<sensor_msgs::PointCloud2>(topic, 1);
   ROS_INFO("publish_cloud: %s (%zu points, %u x %u) on %s in frame %s at %.2f Hz", args[1].c_str(),
