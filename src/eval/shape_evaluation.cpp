@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -18,7 +19,117 @@ Eigen::Vector3d vec3(const nlohmann::json& j) {
   return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
 }
 
+/// Mean over the points of `id` in `truth` of the distance to the nearest of `parts`.
+double meanDistance(const Cloud& cloud, const std::vector<int>& truth, int id,
+                    const std::vector<const Superquadric*>& parts) {
+  double total = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (truth[i] != id) continue;
+    const Eigen::Vector3d p = cloud[i].getVector3fMap().cast<double>();
+    if (!p.allFinite()) continue;
+    double best = std::numeric_limits<double>::infinity();
+    for (const Superquadric* sq : parts) best = std::min(best, surfaceDistance(*sq, p));
+    if (std::isfinite(best)) {
+      total += best;
+      ++n;
+    }
+  }
+  return n > 0 ? total / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
+}
+
 }  // namespace
+
+std::vector<TrueShape> readTrueShapes(const std::string& scene_json) {
+  std::ifstream in(scene_json);
+  if (!in) throw std::runtime_error("cannot read '" + scene_json + "'");
+  std::vector<TrueShape> out;
+  try {
+    const nlohmann::json doc = nlohmann::json::parse(in);
+    for (const auto& o : doc.at("objects")) {
+      TrueShape t;
+      t.id = o.at("id").get<int>();
+      t.type = o.at("type").get<std::string>();
+      for (const auto& part : o.at("parts")) {
+        Superquadric sq;
+        sq.segment = t.id;
+        sq.a = vec3(part.at("a"));
+        sq.e1 = part.at("epsilon").at(0).get<double>();
+        sq.e2 = part.at("epsilon").at(1).get<double>();
+        sq.euler = vec3(part.at("euler"));
+        sq.position = vec3(part.at("position"));
+        if (!sq.a.allFinite() || (sq.a.array() <= 0.0).any() || !sq.position.allFinite())
+          throw std::runtime_error("object " + std::to_string(t.id) + " has an invalid part");
+        t.parts.push_back(sq);
+      }
+      out.push_back(std::move(t));
+    }
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("'" + scene_json + "': " + e.what());
+  } catch (const std::exception& e) {
+    throw std::runtime_error("'" + scene_json + "' has no valid objects: " + e.what());
+  }
+  return out;
+}
+
+std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std::vector<int>& truth,
+                                                  const SceneScore& score,
+                                                  const std::vector<Superquadric>& superquadrics,
+                                                  const std::vector<TrueShape>& shapes) {
+  if (truth.size() != cloud.size()) {
+    throw std::invalid_argument("scoreShapesByObject: " + std::to_string(truth.size()) +
+                                " labels for a cloud of " + std::to_string(cloud.size()));
+  }
+  std::map<int, std::vector<const Superquadric*>> by_segment;
+  for (const auto& sq : superquadrics) by_segment[sq.segment].push_back(&sq);
+  std::vector<ObjectShapeError> out;
+  for (const ObjectScore& obj : score.objects) {
+    if (!obj.found) continue;
+    const auto fitted = by_segment.find(obj.best_segment);
+    const auto shape = std::find_if(shapes.begin(), shapes.end(),
+                                    [&](const TrueShape& t) { return t.id == obj.id; });
+    if (fitted == by_segment.end() || shape == shapes.end() || shape->parts.empty()) continue;
+    std::vector<const Superquadric*> true_parts;
+    for (const auto& sq : shape->parts) true_parts.push_back(&sq);
+    ObjectShapeError e;
+    e.id = obj.id;
+    e.type = shape->type;
+    e.fit_m = meanDistance(cloud, truth, obj.id, fitted->second);
+    e.floor_m = meanDistance(cloud, truth, obj.id, true_parts);
+    if (!std::isfinite(e.fit_m) || !std::isfinite(e.floor_m)) continue;
+    if (shape->parts.size() == 1 && fitted->second.size() == 1) {
+      Eigen::Vector3d a = fitted->second.front()->a, b = shape->parts.front().a;
+      std::sort(a.data(), a.data() + 3);
+      std::sort(b.data(), b.data() + 3);
+      e.semi_axis_error_m = (a - b).cwiseAbs().mean();
+    }
+    out.push_back(e);
+  }
+  return out;
+}
+
+std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeError>& objects) {
+  std::map<std::string, KindShapeError> kinds;
+  for (const auto& o : objects) {
+    KindShapeError& k = kinds[o.type];
+    k.type = o.type;
+    ++k.objects;
+    k.fit_m += o.fit_m;
+    k.floor_m += o.floor_m;
+    if (std::isfinite(o.semi_axis_error_m)) {
+      ++k.axis_objects;
+      k.semi_axis_error_m += o.semi_axis_error_m;
+    }
+  }
+  std::vector<KindShapeError> out;
+  for (auto& [type, k] : kinds) {
+    k.fit_m /= k.objects;
+    k.floor_m /= k.objects;
+    if (k.axis_objects > 0) k.semi_axis_error_m /= k.axis_objects;
+    out.push_back(k);
+  }
+  return out;
+}
 
 std::vector<Superquadric> readSuperquadricsJson(const std::string& path) {
   std::ifstream in(path);

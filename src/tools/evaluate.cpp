@@ -157,6 +157,41 @@ int evaluateOne(const Options& o) {
   return 0;
 }
 
+// The fitted shapes per object kind beside the floor the data allow (shape_evaluation.h).
+std::string shapeKindMarkdown(const std::vector<KindShapeError>& kinds) {
+  std::ostringstream md;
+  md << "\nSuperquadrics per object kind (found objects; the floor is the distance of the "
+        "true points to the true shape, the sensor noise; semi-axis error over single-part "
+        "objects fitted with one part):\n\n"
+     << "| kind | objects | surface error | floor | error / floor | semi-axis error |\n"
+     << "|---|---:|---:|---:|---:|---:|\n";
+  md << std::fixed;
+  for (const auto& k : kinds) {
+    md << "| " << k.type << " | " << k.objects << " | " << std::setprecision(1) << 1000.0 * k.fit_m
+       << " mm | " << 1000.0 * k.floor_m << " mm | " << std::setprecision(2) << k.ratio() << " | ";
+    if (k.axis_objects > 0)
+      md << std::setprecision(1) << 1000.0 * k.semi_axis_error_m << " mm (" << k.axis_objects
+         << ")";
+    else
+      md << "-";
+    md << " |\n";
+  }
+  return md.str();
+}
+
+nlohmann::json shapeKindJson(const std::vector<KindShapeError>& kinds) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto& k : kinds)
+    j.push_back({{"type", k.type},
+                 {"objects", k.objects},
+                 {"surface_error_m", k.fit_m},
+                 {"floor_m", k.floor_m},
+                 {"error_over_floor", k.ratio()},
+                 {"semi_axis_objects", k.axis_objects},
+                 {"semi_axis_error_m", k.axis_objects > 0 ? k.semi_axis_error_m : 0.0}});
+  return j;
+}
+
 int evaluateSuite(const Options& o) {
   if (!fs::is_directory(o.suite)) throw std::runtime_error(o.suite + ": not a directory");
   std::vector<std::string> names;
@@ -174,6 +209,7 @@ int evaluateSuite(const Options& o) {
   int shape_objects = 0;
   double shape_sum_m = 0.0;
   nlohmann::json shape_json = nlohmann::json::object();
+  std::vector<ObjectShapeError> shape_errors;  // per found object, over the suite
   for (const auto& name : names) {
     SuiteEntry e;
     e.name = name;
@@ -189,11 +225,18 @@ int evaluateSuite(const Options& o) {
         const fs::path sq_path = fs::path(o.results) / name / "superquadrics.json";
         const fs::path cur_path = fs::path(o.suite) / name / "cur.pcd";
         if (fs::exists(sq_path) && fs::exists(cur_path)) {
-          const ShapeScore shape = scoreShapes(loadCloud(cur_path.string()), gt, e.score,
-                                               readSuperquadricsJson(sq_path));
+          const Cloud cur = loadCloud(cur_path.string());
+          const std::vector<Superquadric> fitted = readSuperquadricsJson(sq_path);
+          const ShapeScore shape = scoreShapes(cur, gt, e.score, fitted);
           shape_objects += shape.objects;
           shape_sum_m += shape.mean_surface_distance_m * shape.objects;
           if (shape.objects > 0) shape_json[name] = shape.mean_surface_distance_m;
+          const fs::path scene_json = fs::path(o.suite) / name / "scene.json";
+          if (fs::exists(scene_json)) {
+            for (const auto& err :
+                 scoreShapesByObject(cur, gt, e.score, fitted, readTrueShapes(scene_json.string())))
+              shape_errors.push_back(err);
+          }
         }
       } catch (const std::exception& ex) {
         e.note = ex.what();
@@ -234,6 +277,8 @@ int evaluateSuite(const Options& o) {
          << shape_objects << " found objects to their segment's superquadrics.\n";
     md += line.str();
   }
+  const std::vector<KindShapeError> shape_kinds = summarizeShapesByKind(shape_errors);
+  if (!shape_kinds.empty()) md += shapeKindMarkdown(shape_kinds);
   const std::vector<GroupSummary> groups = summarizeGroups(viewpoint);
   int missing_disappeared = 0;
   for (const auto& v : viewpoint)
@@ -294,7 +339,8 @@ int evaluateSuite(const Options& o) {
           {"false_segments", m.false_segments},
           {"shape_objects", shape_objects},
           {"mean_shape_error_m", shape_objects > 0 ? shape_sum_m / shape_objects : 0.0},
-          {"shape_error_m_per_scene", shape_json}}}};
+          {"shape_error_m_per_scene", shape_json},
+          {"shapes_by_kind", shapeKindJson(shape_kinds)}}}};
     writeText(o.json, j.dump(2) + "\n");
   }
   return 0;

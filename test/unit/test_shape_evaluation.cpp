@@ -1,6 +1,7 @@
 // Shape error of fitted superquadrics against the true points of found objects.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 #include "novelty_detection/eval/shape_evaluation.h"
@@ -70,4 +71,64 @@ TEST(ShapeEvaluation, ReadsTheCliContractAndRefusesBadFiles) {
   std::ofstream(path) << "not json";
   EXPECT_THROW(readSuperquadricsJson(path), std::runtime_error);
   EXPECT_THROW(readSuperquadricsJson("/nonexistent/sq.json"), std::runtime_error);
+}
+
+// Per kind: the fit's error beside the true shape's own floor (0 on exact points, the offset
+// of noisy ones), and the semi-axis error of a one-part fit, axes compared by size.
+TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
+  Cloud cloud;
+  std::vector<int> truth;
+  makeScene(cloud, truth);
+  std::vector<int> predicted(truth.size(), 0);
+  for (std::size_t i = 0; i < truth.size(); ++i) predicted[i] = truth[i] == 1 ? 3 : 0;
+  const SceneScore score = scoreLabels(predicted, truth);
+
+  const std::string path = ::testing::TempDir() + "/novelty_scene.json";
+  std::ofstream(path) << R"({"objects": [{"id": 1, "type": "sphere", "parts": [
+    {"a": [0.5, 0.5, 0.5], "epsilon": [1, 1], "euler": [0, 0, 0], "position": [2, 0, 0.5]}]}]})";
+  const std::vector<TrueShape> shapes = readTrueShapes(path);
+  ASSERT_EQ(shapes.size(), 1u);
+  EXPECT_EQ(shapes[0].type, "sphere");
+
+  // A puck: the right width, half the height; every true point lies on the true sphere.
+  Superquadric puck;
+  puck.segment = 3;
+  puck.a = Eigen::Vector3d(0.5, 0.5, 0.25);
+  puck.position = Eigen::Vector3d(2, 0, 0.5);
+  auto errors = scoreShapesByObject(cloud, truth, score, {puck}, shapes);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NEAR(errors[0].floor_m, 0.0, 1e-6);
+  EXPECT_GT(errors[0].fit_m, 0.05);
+  // Sorted axes (0.25, 0.5, 0.5) against (0.5, 0.5, 0.5): mean |difference| 0.25 / 3.
+  EXPECT_NEAR(errors[0].semi_axis_error_m, 0.25 / 3, 1e-12);
+
+  // Two fitted parts: no semi-axis comparison, the surface errors still count.
+  Superquadric other = puck;
+  other.position.z() += 0.3;
+  errors = scoreShapesByObject(cloud, truth, score, {puck, other}, shapes);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_TRUE(std::isnan(errors[0].semi_axis_error_m));
+
+  // Points 2 cm outside the true sphere: the floor is 2 cm, an exact fit's ratio is 1.
+  Cloud noisy = cloud;
+  for (std::size_t i = 0; i < noisy.size(); ++i) {
+    if (truth[i] != 1) continue;
+    const Eigen::Vector3f c(2, 0, 0.5);
+    const Eigen::Vector3f d = noisy[i].getVector3fMap() - c;
+    noisy[i].getVector3fMap() = c + d * (0.52f / d.norm());
+  }
+  Superquadric exact = puck;
+  exact.a = Eigen::Vector3d::Constant(0.5);
+  const auto kinds =
+      summarizeShapesByKind(scoreShapesByObject(noisy, truth, score, {exact}, shapes));
+  ASSERT_EQ(kinds.size(), 1u);
+  EXPECT_EQ(kinds[0].objects, 1);
+  EXPECT_NEAR(kinds[0].floor_m, 0.02, 1e-3);
+  EXPECT_NEAR(kinds[0].ratio(), 1.0, 1e-6);
+  EXPECT_EQ(kinds[0].axis_objects, 1);
+  EXPECT_NEAR(kinds[0].semi_axis_error_m, 0.0, 1e-12);
+
+  std::ofstream(path) << R"({"objects": [{"id": 1, "type": "box", "parts": [{"a": [0, 1, 1]}]}]})";
+  EXPECT_THROW(readTrueShapes(path), std::runtime_error);
+  EXPECT_THROW(readTrueShapes(path + ".missing"), std::runtime_error);
 }

@@ -7,6 +7,7 @@
 // shapes describe the real object, including the points the segmentation missed.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,48 @@ struct ShapeScore {
   double mean_surface_distance_m = 0.0;  ///< mean over those objects
   std::vector<std::pair<int, double>> per_object;  ///< (object id, mean distance [m])
 };
+
+/// A changed object's true shape (scene.json "objects": id, type, parts).
+struct TrueShape {
+  int id = 0;
+  std::string type;                 ///< "box", "cylinder", "sphere", "door", "person", ...
+  std::vector<Superquadric> parts;  ///< one per part of the simulated object
+};
+
+/// How well one found object's superquadrics describe it, beside what its data allow.
+struct ObjectShapeError {
+  int id = 0;
+  std::string type;
+  double fit_m = 0.0;    ///< mean over its true points of the distance to its segment's parts
+  double floor_m = 0.0;  ///< the same to its true parts: the sensor noise, the best a fit can do
+  /// Single-part objects fitted with one part: mean over the three axes of |a_fit - a_true|,
+  /// both sorted by size (a one-sided view that gets the hidden extent wrong shows here);
+  /// NaN otherwise.
+  double semi_axis_error_m = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// Per object kind: means over its found objects (semi-axis error over those that have one).
+struct KindShapeError {
+  std::string type;
+  int objects = 0;
+  double fit_m = 0.0, floor_m = 0.0;
+  int axis_objects = 0;
+  double semi_axis_error_m = 0.0;
+  double ratio() const { return floor_m > 0.0 ? fit_m / floor_m : 0.0; }
+};
+
+/// Reads the changed objects' true shapes from a scene's scene.json. Throws
+/// std::runtime_error naming the file and what is wrong.
+std::vector<TrueShape> readTrueShapes(const std::string& scene_json);
+
+/// For every found object with superquadrics and a true shape: its errors (above).
+std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std::vector<int>& truth,
+                                                  const SceneScore& score,
+                                                  const std::vector<Superquadric>& superquadrics,
+                                                  const std::vector<TrueShape>& shapes);
+
+/// Means per kind, sorted by kind.
+std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeError>& objects);
 
 /// Reads superquadrics.json as novelty_detect writes it (the output contract: segment, a,
 /// epsilon, position, orientation.euler ZYZ). Throws std::runtime_error naming the file.
