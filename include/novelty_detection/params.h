@@ -404,6 +404,7 @@ struct SuperquadricParams {
   bool enabled = true;
   double epsilon_min = 0.1;
   double epsilon_max = 1.9;
+  double corner_gain = 0.25;
   int max_iterations = 50;
   double function_tolerance = 1e-6;
   bool autodiff = false;
@@ -432,6 +433,12 @@ struct SuperquadricParams {
     f("enabled", enabled, {"fit superquadrics to the novelty segments"});
     f("epsilon_min", epsilon_min, {"lower bound of the shape exponents e1, e2", 0.01, 2.0});
     f("epsilon_max", epsilon_max, {"upper bound of the shape exponents e1, e2", 0.01, 4.0});
+    f("corner_gain", corner_gain,
+      {"a segment's whole fit keeps shape exponents away from 1 (corners, flat faces) only when "
+       "they lower its mean surface distance by more than this fraction of an ellipsoid's "
+       "(e1 = e2 = 1) fit from the same pose; else the ellipsoid is kept (a one-sided view of a "
+       "round object stays round); 0: the exponents are always free",
+       0.0, 10.0});
     f("max_iterations", max_iterations, {"Levenberg-Marquardt iteration cap per fit", 1, 10000});
     f("function_tolerance", function_tolerance,
       {"Levenberg-Marquardt stops when the cost changes relatively less than this", 0.0, 1.0});

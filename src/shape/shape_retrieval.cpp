@@ -11,6 +11,10 @@
 #include "novelty_detection/shape/superquadric_fit.h"
 
 namespace novelty_detection {
+namespace {
+// An ellipsoid's exponents may move this little from 1 (bounds need some room).
+constexpr double kRoundBand = 0.02;
+}  // namespace
 
 ShapeRetrieval::ShapeRetrieval(const SuperquadricParams& params) : params_(params) {
   params_.validate();
@@ -47,6 +51,20 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
+
+  // Round unless the data demand corners: the free exponents fit a one-sided view of a
+  // round object about as well with a flattened, box-like shape whose unseen extent is wrong.
+  // An ellipsoid (e1 = e2 = 1), fitted from the same starts, replaces the free fit unless the
+  // free one's mean surface distance is lower by more than corner_gain of the ellipsoid's
+  // (both mostly the sensor noise when they fit, so the bar scales with it).
+  if (params_.corner_gain > 0.0) {
+    SuperquadricParams round = params_;
+    round.epsilon_min = 1.0 - kRoundBand;
+    round.epsilon_max = 1.0 + kRoundBand;
+    const FitResult ellipsoid = SuperquadricFitter(round).fit(sub, -1, true, FitMeasures::kSurface);
+    const double free_distance = meanSurfaceDistance(best.sq, sub);
+    if (ellipsoid.mean_distance * (1.0 - params_.corner_gain) <= free_distance) best = ellipsoid;
+  }
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
   SplitMerge split_merge(params_);
