@@ -607,11 +607,11 @@ struct TrackingParams {
        "without detecting it (a person who walked on)",
        1, 1000});
     f("gate_m", gate_m,
-      {"a detection continues a track when their centroids are at most this far apart [m] ...",
-       0.0, 100.0});
+      {"a detection continues a track when their centroids are at most this far apart [m] ...", 0.0,
+       100.0});
     f("min_overlap", min_overlap,
-      {"... or when their bounding boxes overlap by at least this intersection over union",
-       0.0, 1.0});
+      {"... or when their bounding boxes overlap by at least this intersection over union", 0.0,
+       1.0});
   }
   void validate() const;
 };

@@ -20,8 +20,8 @@ Cloud fromPointCloud2(const sensor_msgs::PointCloud2& msg);
 
 /// A PointCloud2 with fields x, y, z (FLOAT32), label (UINT32) and rgb (rviz's packed
 /// RGB8: the segment's colour, segmentColour, as on its superquadrics; grey for label 0), in
-/// the host's byte order, dense layout. With `only_labelled`, keeps the points with label > 0; otherwise every point
-/// (the output is then organised like `cloud`: height 1, width = cloud size).
+/// the host's byte order, dense layout. With `only_labelled`, keeps the points with label > 0;
+/// otherwise every point (the output is then organised like `cloud`: height 1, width = cloud size).
 /// Throws std::invalid_argument when labels.size() != cloud.size().
 sensor_msgs::PointCloud2 toLabelledPointCloud2(const Cloud& cloud, const std::vector<int>& labels,
                                                const std_msgs::Header& header, bool only_labelled);
