@@ -19,6 +19,21 @@ Eigen::Vector3d vec3(const nlohmann::json& j) {
   return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
 }
 
+/// The sizes, exponents, position and ZYZ angles (`euler`) of a superquadric entry; throws
+/// `invalid` when its sizes or position are not usable.
+Superquadric superquadricFromJson(const nlohmann::json& e, const nlohmann::json& euler,
+                                  const std::string& invalid) {
+  Superquadric sq;
+  sq.a = vec3(e.at("a"));
+  sq.e1 = e.at("epsilon").at(0).get<double>();
+  sq.e2 = e.at("epsilon").at(1).get<double>();
+  sq.position = vec3(e.at("position"));
+  sq.euler = vec3(euler);
+  if (!sq.a.allFinite() || (sq.a.array() <= 0.0).any() || !sq.position.allFinite())
+    throw std::runtime_error(invalid);
+  return sq;
+}
+
 /// Mean over the points of `id` in `truth` of the distance to the nearest of `parts`.
 double meanDistance(const Cloud& cloud, const std::vector<int>& truth, int id,
                     const std::vector<const Superquadric*>& parts) {
@@ -51,15 +66,9 @@ std::vector<TrueShape> readTrueShapes(const std::string& scene_json) {
       t.id = o.at("id").get<int>();
       t.type = o.at("type").get<std::string>();
       for (const auto& part : o.at("parts")) {
-        Superquadric sq;
+        Superquadric sq = superquadricFromJson(
+            part, part.at("euler"), "object " + std::to_string(t.id) + " has an invalid part");
         sq.segment = t.id;
-        sq.a = vec3(part.at("a"));
-        sq.e1 = part.at("epsilon").at(0).get<double>();
-        sq.e2 = part.at("epsilon").at(1).get<double>();
-        sq.euler = vec3(part.at("euler"));
-        sq.position = vec3(part.at("position"));
-        if (!sq.a.allFinite() || (sq.a.array() <= 0.0).any() || !sq.position.allFinite())
-          throw std::runtime_error("object " + std::to_string(t.id) + " has an invalid part");
         t.parts.push_back(sq);
       }
       out.push_back(std::move(t));
@@ -139,18 +148,11 @@ std::vector<Superquadric> readSuperquadricsJson(const std::string& path) {
     const nlohmann::json doc = nlohmann::json::parse(in);
     if (!doc.is_array()) throw std::runtime_error("top level is not a list");
     for (const auto& e : doc) {
-      Superquadric sq;
+      Superquadric sq = superquadricFromJson(e, e.at("orientation").at("euler"),
+                                             "superquadric with invalid sizes or position");
       sq.segment = e.at("segment").get<int>();
-      sq.a = vec3(e.at("a"));
-      sq.e1 = e.at("epsilon").at(0).get<double>();
-      sq.e2 = e.at("epsilon").at(1).get<double>();
-      sq.position = vec3(e.at("position"));
-      sq.euler = vec3(e.at("orientation").at("euler"));
       sq.points = e.value("points", 0);
       sq.residual = e.value("residual", 0.0);
-      if (!sq.a.allFinite() || (sq.a.array() <= 0.0).any() || !sq.position.allFinite()) {
-        throw std::runtime_error("superquadric with invalid sizes or position");
-      }
       out.push_back(sq);
     }
   } catch (const std::runtime_error& e) {
@@ -176,22 +178,10 @@ ShapeScore scoreShapes(const Cloud& cloud, const std::vector<int>& truth, const 
     if (!obj.found) continue;
     const auto parts = by_segment.find(obj.best_segment);
     if (parts == by_segment.end()) continue;
-    double total = 0.0;
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      if (truth[i] != obj.id) continue;
-      const Eigen::Vector3d p = cloud[i].getVector3fMap().cast<double>();
-      if (!p.allFinite()) continue;
-      double best = std::numeric_limits<double>::infinity();
-      for (const Superquadric* sq : parts->second) best = std::min(best, surfaceDistance(*sq, p));
-      if (std::isfinite(best)) {
-        total += best;
-        ++n;
-      }
-    }
-    if (n == 0) continue;
-    out.per_object.emplace_back(obj.id, total / static_cast<double>(n));
-    sum += total / static_cast<double>(n);
+    const double mean = meanDistance(cloud, truth, obj.id, parts->second);
+    if (!std::isfinite(mean)) continue;
+    out.per_object.emplace_back(obj.id, mean);
+    sum += mean;
     ++out.objects;
   }
   if (out.objects > 0) out.mean_surface_distance_m = sum / out.objects;

@@ -19,6 +19,7 @@
 
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/reference_sweeps.h"
+#include "process_run.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -27,28 +28,11 @@ namespace {
 
 const fs::path kBin = NOVELTY_BIN_DIR;
 
-struct ProcessRun {
-  int code = 0;
-  std::string out;
-};
+using process_run::ProcessRun;
+using process_run::run;
 
-ProcessRun run(const std::string& cmd) {
-  ProcessRun r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) r.out += buf;
-  const int status = ::pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-/// roslaunch on a master of its own (a port of this process), so that tests running at the
-/// same time do not share one.
 std::string roslaunch(const std::string& args) {
-  const std::string port = std::to_string(20000 + ::getpid() % 20000);
-  return "ROS_MASTER_URI=http://localhost:" + port + " timeout 240 roslaunch -p " + port +
-         " novelty_detection build_reference.launch " + args;
+  return process_run::roslaunch("build_reference.launch", args, 0, 240);
 }
 
 std::vector<int> readLabels(const fs::path& path) {
@@ -151,7 +135,7 @@ TEST_F(BuildReference, RouteBagToReferenceDirectoryToDetection) {
   std::printf("route map from the bag: F1 %.3f (%zu tp, %zu fp, %zu fn), %zu segments\n", f1, tp,
               fp, fn, segments.size());
   EXPECT_GE(f1, 0.8);
-  EXPECT_GE(object_found, 0.8 * object);     // the object that stays
+  EXPECT_GE(object_found, 0.8 * object);  // the object that stays
   // No false segment (mostly off the changes) over 1 % of the sweep: the suite's bar (a patch
   // of floor seen densely from the current pose and only along sparse lines from the route's
   // poses may stay below it).

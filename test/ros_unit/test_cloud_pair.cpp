@@ -11,33 +11,20 @@
 #include <regex>
 #include <string>
 
+#include "process_run.h"
+
 namespace fs = std::filesystem;
+using namespace novelty_detection;
 
 namespace {
 
 const fs::path kBin = NOVELTY_BIN_DIR;
 
-struct ProcessRun {
-  int code = 0;
-  std::string out;
-};
+using process_run::ProcessRun;
+using process_run::run;
 
-ProcessRun run(const std::string& cmd) {
-  ProcessRun r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, p)) r.out += buf;
-  const int status = ::pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-/// roslaunch on a master of its own (a port of this process).
 std::string roslaunch(const std::string& args) {
-  const std::string port = std::to_string(20000 + (::getpid() + 7) % 20000);
-  return "ROS_MASTER_URI=http://localhost:" + port + " timeout 180 roslaunch -p " + port +
-         " novelty_detection cloud_pair.launch " + args;
+  return process_run::roslaunch("cloud_pair.launch", args, 7, 180);
 }
 
 class CloudPair : public ::testing::Test {

@@ -24,15 +24,19 @@ void makeScene(Cloud& cloud, std::vector<int>& truth) {
     truth.push_back(0);
   }
 }
+// The label score of a prediction that labels object 1 exactly, as segment 3.
+SceneScore foundAsSegmentThree(const std::vector<int>& truth) {
+  std::vector<int> predicted(truth.size(), 0);
+  for (std::size_t i = 0; i < truth.size(); ++i) predicted[i] = truth[i] == 1 ? 3 : 0;
+  return scoreLabels(predicted, truth);
+}
 }  // namespace
 
 TEST(ShapeEvaluation, ExactShapeScoresZeroAndALargerOneItsOffset) {
   Cloud cloud;
   std::vector<int> truth;
   makeScene(cloud, truth);
-  std::vector<int> predicted(truth.size(), 0);
-  for (std::size_t i = 0; i < truth.size(); ++i) predicted[i] = truth[i] == 1 ? 3 : 0;
-  const SceneScore score = scoreLabels(predicted, truth);
+  const SceneScore score = foundAsSegmentThree(truth);
   ASSERT_TRUE(score.objects.at(0).found);
 
   Superquadric fit;
@@ -79,9 +83,7 @@ TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
   Cloud cloud;
   std::vector<int> truth;
   makeScene(cloud, truth);
-  std::vector<int> predicted(truth.size(), 0);
-  for (std::size_t i = 0; i < truth.size(); ++i) predicted[i] = truth[i] == 1 ? 3 : 0;
-  const SceneScore score = scoreLabels(predicted, truth);
+  const SceneScore score = foundAsSegmentThree(truth);
 
   const std::string path = ::testing::TempDir() + "/novelty_scene.json";
   std::ofstream(path) << R"({"objects": [{"id": 1, "type": "sphere", "parts": [
