@@ -125,21 +125,23 @@ std::shared_ptr<const Pipeline> TiledReference::pipelineFor(const Eigen::Vector3
   const std::shared_ptr<const Cloud> whole_map = whole ? map_ : nullptr;
   const std::shared_ptr<const ReferenceViews> whole_views = whole ? views_ : nullptr;
   Cloud crop;
-  // The map's viewpoint (if known) feeds the pipeline's free-space check.
-  crop.sensor_origin_ = map_->sensor_origin_;
-  crop.sensor_orientation_ = map_->sensor_orientation_;
   ReferenceViews crop_views;  // the sweeps the crop holds points of, renumbered
-  std::vector<std::int64_t> renumbered(views_->origins.size(), -1);
-  for (const auto& t : whole ? TileSet{} : key) {
-    for (int i : tiles_.at(t)) {
-      crop.push_back((*map_)[i]);
-      if (views_->empty()) continue;
-      std::int64_t& k = renumbered[views_->sweep[i]];
-      if (k < 0) {
-        k = static_cast<std::int64_t>(crop_views.origins.size());
-        crop_views.origins.push_back(views_->origins[views_->sweep[i]]);
+  if (!whole) {
+    // The map's viewpoint (if known) feeds the pipeline's free-space check.
+    crop.sensor_origin_ = map_->sensor_origin_;
+    crop.sensor_orientation_ = map_->sensor_orientation_;
+    std::vector<std::int64_t> renumbered(views_->origins.size(), -1);
+    for (const auto& t : key) {
+      for (int i : tiles_.at(t)) {
+        crop.push_back((*map_)[i]);
+        if (views_->empty()) continue;
+        std::int64_t& k = renumbered[views_->sweep[i]];
+        if (k < 0) {
+          k = static_cast<std::int64_t>(crop_views.origins.size());
+          crop_views.origins.push_back(views_->origins[views_->sweep[i]]);
+        }
+        crop_views.sweep.push_back(static_cast<std::uint32_t>(k));
       }
-      crop_views.sweep.push_back(static_cast<std::uint32_t>(k));
     }
   }
   // The model is built without the lock (seconds on a large map): the diagnostics, the

@@ -35,11 +35,27 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
   // points, and a fit on the finer points from the moment initialisation; the lower mean
   // radial distance on the finer points wins.
-  // The two are independent: in parallel.
+  // Round unless the data demand corners: the free exponents fit a one-sided view of a
+  // round object about as well with a flattened, box-like shape whose unseen extent is wrong.
+  // An ellipsoid (e1 = e2 = 1), fitted from the same starts, replaces the free fit unless the
+  // free one's mean surface distance is lower by more than corner_gain of the ellipsoid's
+  // (both mostly the sensor noise when they fit, so the bar scales with it).
+  const bool round_check = params_.corner_gain > 0.0;
+  SuperquadricParams round = params_;
+  round.epsilon_min = 1.0 - kRoundBand;
+  round.epsilon_max = 1.0 + kRoundBand;
+  const SuperquadricFitter round_fitter(round);
+
+  // The three fits are independent: in parallel.
   bool coarse_usable = coarse.size() >= 11;
   for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
-  FitResult fits[2];
-  detail::parallelFor(coarse_usable ? 2 : 1, threads_, [&](int k) {
+  FitResult fits[2], ellipsoid;
+  detail::parallelFor(3, threads_, [&](int k) {
+    if (k == 2) {
+      if (round_check) ellipsoid = round_fitter.fit(sub, -1, true, FitMeasures::kSurface);
+      return;
+    }
+    if (k == 1 && !coarse_usable) return;
     // Only the mean radial distance (the choice) and the model are used here.
     fits[k] = k == 0 ? fitter.fit(sub, -1, true, FitMeasures::kRadial)
                      : fitter.refine(sub,
@@ -51,20 +67,9 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
-
-  // Round unless the data demand corners: the free exponents fit a one-sided view of a
-  // round object about as well with a flattened, box-like shape whose unseen extent is wrong.
-  // An ellipsoid (e1 = e2 = 1), fitted from the same starts, replaces the free fit unless the
-  // free one's mean surface distance is lower by more than corner_gain of the ellipsoid's
-  // (both mostly the sensor noise when they fit, so the bar scales with it).
-  if (params_.corner_gain > 0.0) {
-    SuperquadricParams round = params_;
-    round.epsilon_min = 1.0 - kRoundBand;
-    round.epsilon_max = 1.0 + kRoundBand;
-    const FitResult ellipsoid = SuperquadricFitter(round).fit(sub, -1, true, FitMeasures::kSurface);
-    const double free_distance = meanSurfaceDistance(best.sq, sub);
-    if (ellipsoid.mean_distance * (1.0 - params_.corner_gain) <= free_distance) best = ellipsoid;
-  }
+  if (round_check &&
+      ellipsoid.mean_distance * (1.0 - params_.corner_gain) <= meanSurfaceDistance(best.sq, sub))
+    best = ellipsoid;
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
   SplitMerge split_merge(params_);
