@@ -14,6 +14,7 @@
 #include <random>
 
 #include "novelty_detection/eval/evaluation.h"
+#include "novelty_detection/eval/shape_evaluation.h"
 #include "novelty_detection/mixture/emd.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
@@ -188,6 +189,69 @@ BENCHMARK(BM_Suite)
     ->Args({1, 3000})
     ->Iterations(1)
     ->Unit(benchmark::kSecond);
+
+/// Shapes over the 30-scene suite of seed range(0), superquadric/bounded_fit = range(1):
+/// medians of the superquadric stage and of the whole detection per scene [ms], and what
+/// they achieved: scene success, mean F1, each kind's mean semi-axis error [mm] (one-part
+/// fits) and mean surface error over the true shape's floor (evaluate's shapes by kind).
+void BM_SuiteShapes(benchmark::State& state) {
+  const auto seed = static_cast<std::uint64_t>(state.range(0));
+  Params p;
+  p.superquadric.bounded_fit = state.range(1) != 0;
+  std::vector<sim::ScenePair> scenes;
+  for (int i = 0; i < 30; ++i)
+    scenes.push_back(sim::generateScenePair(sim::suiteSceneConfig(i, seed)));
+  std::vector<double> shape_ms, detect_ms;
+  std::vector<ObjectShapeError> objects;
+  int success = 0;
+  double f1 = 0.0;
+  for (auto _ : state) {
+    shape_ms.clear();
+    detect_ms.clear();
+    objects.clear();
+    success = 0;
+    f1 = 0.0;
+    for (const sim::ScenePair& s : scenes) {
+      Pipeline pipeline(p);
+      pipeline.setReference(s.reference);
+      const Result r = pipeline.detect(s.current);
+      double ms = 0.0, sq_ms = 0.0;
+      for (const auto& t : r.timings) {
+        ms += t.ms;
+        if (t.stage == "superquadrics") sq_ms = t.ms;
+      }
+      detect_ms.push_back(ms);
+      shape_ms.push_back(sq_ms);
+      const SceneScore sc = scoreLabels(r.labels, s.current_labels);
+      success += sc.success;
+      f1 += sc.f1;
+      std::vector<TrueShape> shapes;
+      for (const auto& o : s.objects) {
+        TrueShape t;
+        t.id = o.id;
+        t.type = sim::toString(o.kind);
+        for (const auto& part : o.parts) t.parts.push_back(part.sq);
+        shapes.push_back(std::move(t));
+      }
+      for (auto& e : scoreShapesByObject(s.current, s.current_labels, sc, r.superquadrics, shapes))
+        objects.push_back(e);
+    }
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["superquadric_ms"] = median(shape_ms);
+  state.counters["detect_ms"] = median(detect_ms);
+  state.counters["success"] = static_cast<double>(success) / static_cast<double>(scenes.size());
+  state.counters["mean_f1"] = f1 / static_cast<double>(scenes.size());
+  for (const KindShapeError& k : summarizeShapesByKind(objects)) {
+    if (k.type == "person" || k.type == "moved_object") continue;
+    state.counters[k.type + "_axis_mm"] = 1000.0 * k.semi_axis_error_m;
+    state.counters[k.type + "_over_floor"] = k.fit_m / k.floor_m;
+  }
+}
+BENCHMARK(BM_SuiteShapes)->Args({1, 0})->Args({1, 1})->Iterations(1)->Unit(benchmark::kSecond);
 
 }  // namespace
 

@@ -331,6 +331,26 @@ void markNewlyVisible(Detection& d) {
   d.timer.lap("newly_visible");
 }
 
+/// What bounds the segments' fits (shape/fit_bounds.h): the sweep, its labels, its view from
+/// its own origin (built here when no earlier stage needed it) and its floor.
+FitBoundsSource boundsSource(Detection& d) {
+  FitBoundsSource source;
+  if (!d.params.superquadric.bounded_fit) return source;
+  const Cloud& current = *d.current;
+  if (d.current_view.empty() && sensorOriginKnown(current.sensor_origin_))
+    d.current_view.build(current, {}, current.sensor_origin_.head<3>(),
+                         rangeImageConfig(d.params.visibility));
+  source.sweep = &current;
+  source.labels = &d.result.labels;
+  source.view = &d.current_view;
+  source.margin_m = d.tau;
+  const GroundPlane& ground = d.s.pre.ground;
+  source.has_floor = ground.found;
+  source.floor = ground.coefficients;
+  source.floor_band_m = ground.threshold_m;
+  return source;
+}
+
 /// Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
 /// the coarse points. A failed fit never loses the detection.
 void fitSuperquadrics(Detection& d) {
@@ -340,6 +360,7 @@ void fitSuperquadrics(Detection& d) {
     ShapeRetrieval retrieval(p);
     retrieval.setThreads(d.params.compute.resolved());
     const MultiScaleTree::Cut& fine_cut = d.s.fine;
+    const FitBoundsSource source = boundsSource(d);
     for (const Segment& seg : result.segments) {
       Points3d fine, coarse;
       fine.reserve(seg.indices.size());
@@ -353,7 +374,8 @@ void fitSuperquadrics(Detection& d) {
         }
       }
       try {
-        for (Superquadric sq : retrieval.recover(fine, coarse, seg.id)) {
+        const FitBounds bounds = fitBoundsFor(fine, seg.id, source, p);
+        for (Superquadric sq : retrieval.recover(fine, coarse, seg.id, &bounds)) {
           for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
           result.superquadrics.push_back(std::move(sq));
         }

@@ -405,6 +405,13 @@ struct SuperquadricParams {
   double epsilon_min = 0.1;
   double epsilon_max = 1.9;
   double corner_gain = 0.25;
+  bool bounded_fit = true;
+  double outside_weight = 1.0;
+  double support_weight = 1.0;
+  double support_fraction = 0.5;
+  bool upright = true;
+  double mirror_max_free = 0.1;
+  int bound_points = 400;
   int max_iterations = 50;
   double function_tolerance = 1e-6;
   bool autodiff = false;
@@ -439,6 +446,33 @@ struct SuperquadricParams {
        "(e1 = e2 = 1) fit from the same pose; else the ellipsoid is kept (a one-sided view of a "
        "round object stays round); 0: the exponents are always free",
        0.0, 10.0});
+    f("bounded_fit", bounded_fit,
+      {"a segment's final fit is bounded by what the sweep observed around it: it pays for "
+       "containing space the sensor saw through or surfaces that are not the segment's, and an "
+       "object whose points come down to the floor reaches the floor (shape/fit_bounds.h)"});
+    f("outside_weight", outside_weight,
+      {"weight of the points a bounded fit must not contain (free space, other surfaces), "
+       "relative to the segment's own points; 0: not used",
+       0.0, 1000.0});
+    f("support_weight", support_weight,
+      {"weight of the floor support of a standing object, relative to all its points moved by "
+       "the same distance; 0: no support",
+       0.0, 1000.0});
+    f("support_fraction", support_fraction,
+      {"an object stands on the floor when its lowest point lies within the floor band plus "
+       "support_fraction times its own height above the floor",
+       0.0, 1.0});
+    f("upright", upright,
+      {"a bounded fit of an object standing on the floor keeps one axis along up and turns only "
+       "about it"});
+    f("mirror_max_free", mirror_max_free,
+      {"a bounded whole fit of a standing object also fits its points reflected about the "
+       "vertical axis through the middle of its silhouette (the hidden side by symmetry), "
+       "unless more than this fraction of the reflected points lie in space the sweep saw "
+       "through; 0: no mirroring",
+       0.0, 1.0});
+    f("bound_points", bound_points,
+      {"at most this many outside points bound one fit (evenly thinned)", 1, 100000000});
     f("max_iterations", max_iterations, {"Levenberg-Marquardt iteration cap per fit", 1, 10000});
     f("function_tolerance", function_tolerance,
       {"Levenberg-Marquardt stops when the cost changes relatively less than this", 0.0, 1.0});

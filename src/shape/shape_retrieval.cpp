@@ -21,16 +21,29 @@ ShapeRetrieval::ShapeRetrieval(const SuperquadricParams& params) : params_(param
 }
 
 std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Points3d& coarse,
-                                                  int segment_id) const {
+                                                  int segment_id, const FitBounds* bounds) const {
   if (!params_.enabled) return {};
   if (fine.empty()) {
     throw std::invalid_argument("ShapeRetrieval::recover: segment " + std::to_string(segment_id) +
                                 " has no points");
   }
   const SuperquadricFitter fitter(params_);
+  // The final fits within what the sweep observed around the segment.
+  SuperquadricFitter bounded(params_);
+  if (bounds && !bounds->empty()) bounded.setBounds(bounds);
   Indices sm_index;
   const Points3d sm_points = subsample(fine, params_.split_max_points, &sm_index);
   const Points3d sub = subsample(sm_points, params_.max_fit_points);
+  // The final bounded fit also sees the hidden side by symmetry (fit_bounds.h).
+  Points3d seen_and_mirrored;
+  if (bounds) {
+    const Points3d mirrored = mirroredHiddenSide(sub, *bounds);
+    if (!mirrored.empty()) {
+      seen_and_mirrored = sub;
+      seen_and_mirrored.insert(seen_and_mirrored.end(), mirrored.begin(), mirrored.end());
+      seen_and_mirrored = subsample(seen_and_mirrored, params_.max_fit_points);
+    }
+  }
 
   // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
   // points, and a fit on the finer points from the moment initialisation; the lower mean
@@ -75,7 +88,12 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   SplitMerge split_merge(params_);
   split_merge.setThreads(threads_);
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
-  if (parts.size() == 1) parts.front().fit = best;
+  if (parts.size() == 1) {
+    if (bounds && !bounds->empty())
+      best = bounded.refine(seen_and_mirrored.empty() ? sub : seen_and_mirrored, best.sq, -1, true,
+                            FitMeasures::kNone);
+    parts.front().fit = best;
+  }
 
   // Every fine point goes to its part: points left out by the subsampling take the part of
   // their nearest kept neighbour (or, if none is near, of the nearest surface).
@@ -119,8 +137,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   if (parts.size() > 1) {
     detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
       if (part_points[k].empty()) return;
-      parts[k].fit = fitter.refine(subsample(part_points[k], params_.max_fit_points),
-                                   parts[k].fit.sq, -1, true, FitMeasures::kNone);
+      parts[k].fit = bounded.refine(subsample(part_points[k], params_.max_fit_points),
+                                    parts[k].fit.sq, -1, true, FitMeasures::kNone);
     });
   }
   for (std::size_t k = 0; k < parts.size(); ++k) {

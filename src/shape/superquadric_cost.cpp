@@ -138,4 +138,27 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
   return true;
 }
 
+SuperquadricOutsideResidual::SuperquadricOutsideResidual(const std::vector<Eigen::Vector3d>& q,
+                                                         double weight)
+    : inner_(q), weight_(weight) {
+  set_num_residuals(static_cast<int>(q.size()));
+  *mutable_parameter_block_sizes() = {3, 2, 3, 3};
+}
+
+bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, double* residuals,
+                                           double** jacobians) const {
+  if (!inner_.Evaluate(parameters, residuals, jacobians)) return false;
+  constexpr int kSizes[4] = {3, 2, 3, 3};
+  for (int i = 0; i < num_residuals(); ++i) {
+    const double scale = residuals[i] < 0.0 ? -weight_ : 0.0;
+    residuals[i] *= scale;
+    if (!jacobians) continue;
+    for (int b = 0; b < 4; ++b) {
+      if (!jacobians[b]) continue;
+      for (int k = 0; k < kSizes[b]; ++k) jacobians[b][i * kSizes[b] + k] *= scale;
+    }
+  }
+  return true;
+}
+
 }  // namespace novelty_detection

@@ -26,6 +26,49 @@ void requirePoints(const Points3d& points, const char* who) {
   }
 }
 
+/// The bounds' residuals (fit_bounds.h) in the start model's frame (r0, c0): the hinge on the
+/// outside points, weighted so that together they weigh at least as much as the points, and
+/// the support when the points stand on the floor, weighing like all of them moved by the
+/// same distance (eq. 3's residual changes by about 2 sqrt(a) per metre of offset).
+void addBounds(const FitBounds& bounds, const Points3d& points, bool standing,
+               const Eigen::Matrix3d& r0, const Eigen::Vector3d& c0, double* a, double* e,
+               double* w, double* t, ceres::Problem* problem) {
+  const double n = static_cast<double>(points.size());
+  if (!bounds.outside.empty() && bounds.outside_weight > 0.0) {
+    Points3d q(bounds.outside.size());
+    for (std::size_t i = 0; i < q.size(); ++i) q[i] = r0.transpose() * (bounds.outside[i] - c0);
+    const double m = static_cast<double>(q.size());
+    problem->AddResidualBlock(
+        new SuperquadricOutsideResidual(q, bounds.outside_weight * std::sqrt(std::max(1.0, n / m))),
+        nullptr, a, e, w, t);
+  }
+  if (bounds.support_weight > 0.0 && standing) {
+    const double mean_a = (a[0] + a[1] + a[2]) / 3.0;
+    const double weight = bounds.support_weight * std::sqrt(n) * 2.0 * std::sqrt(mean_a);
+    problem->AddResidualBlock(
+        SuperquadricSupportResidual::Create(r0.transpose() * bounds.up,
+                                            bounds.up.dot(c0) + bounds.floor_offset, weight),
+        nullptr, a, e, w, t);
+  }
+}
+
+/// `r` turned so that its axis nearest to `up` lies along it (the other two horizontal);
+/// `axis` receives that axis.
+Eigen::Matrix3d uprightRotation(const Eigen::Matrix3d& r, const Eigen::Vector3d& up, int* axis) {
+  int k = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(r.col(j).dot(up)) > std::abs(r.col(k).dot(up))) k = j;
+  const int i = (k + 1) % 3, j = (k + 2) % 3;
+  Eigen::Matrix3d out;
+  out.col(k) = r.col(k).dot(up) < 0.0 ? Eigen::Vector3d(-up) : up;
+  Eigen::Vector3d h = r.col(i) - r.col(i).dot(out.col(k)) * out.col(k);
+  if (h.norm() < 1e-9) h = out.col(k).unitOrthogonal();
+  out.col(i) = h.normalized();
+  out.col(j) = out.col(k).cross(out.col(i));
+  *axis = k;
+  return out;
+}
+
 }  // namespace
 
 PrincipalFrame principalFrame(const Points3d& points) {
@@ -120,18 +163,23 @@ FitResult SuperquadricFitter::refine(const Points3d& points, const Superquadric&
                                      int max_iterations, bool line_search,
                                      FitMeasures measures) const {
   requirePoints(points, "SuperquadricFitter::refine");
-  return solve(points, initial, max_iterations, line_search, measures);
+  return solve(points, initial, max_iterations, line_search, measures, nullptr, true);
 }
 
 FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& initial,
                                     int max_iterations, bool line_search, FitMeasures measures,
-                                    const PrincipalFrame* frame) const {
+                                    const PrincipalFrame* frame, bool bounded) const {
   const PrincipalFrame f = frame ? *frame : principalFrame(points);
   const double h = std::max(f.halfExtent(), params_.min_size_m);
   const double size_lo = std::max(params_.min_size_m, params_.min_size_fraction * h);
   const double size_hi = std::max(params_.max_size_factor * h, 2.0 * size_lo);
 
-  const Eigen::Matrix3d r0 = initial.rotation();
+  // A standing object within bounds stays upright: one axis along up, turning about it.
+  const bool standing = bounded && bounds_ && bounds_->standsOnFloor(points);
+  int up_axis = -1;
+  const Eigen::Matrix3d r0 = standing && bounds_->upright
+                                 ? uprightRotation(initial.rotation(), bounds_->up, &up_axis)
+                                 : initial.rotation();
   const Eigen::Vector3d c0 = initial.position;
   double a[3], e[2], w[3] = {0.0, 0.0, 0.0}, t[3] = {0.0, 0.0, 0.0};
   for (int k = 0; k < 3; ++k) a[k] = std::min(std::max(initial.a[k], size_lo), size_hi);
@@ -162,6 +210,11 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
                                                 : SuperquadricAnalyticResidual::Create(q),
                                loss, a, e, w, t);
     }
+  }
+  if (bounded && bounds_) addBounds(*bounds_, points, standing, r0, c0, a, e, w, t, &problem);
+  if (up_axis >= 0) {
+    problem.AddParameterBlock(w, 3);
+    problem.SetManifold(w, new ceres::SubsetManifold(3, {(up_axis + 1) % 3, (up_axis + 2) % 3}));
   }
   for (int k = 0; k < 3; ++k) {
     problem.SetParameterLowerBound(a, k, size_lo);
@@ -242,7 +295,7 @@ FitResult SuperquadricFitter::fit(const Points3d& points, int max_iterations, bo
       best = r;
     }
   }
-  return solve(points, best.sq, max_iterations, line_search, measures, &frame);
+  return solve(points, best.sq, max_iterations, line_search, measures, &frame, true);
 }
 
 }  // namespace novelty_detection

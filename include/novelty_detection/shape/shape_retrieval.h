@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "novelty_detection/params.h"
+#include "novelty_detection/shape/fit_bounds.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -15,9 +16,11 @@ class ShapeRetrieval {
   /// Superquadrics describing one segment. `fine`: all its points; `coarse`: a subset of
   /// them (the multi-scale cut's representatives inside the segment), used for the first
   /// fit before refining on `fine` (Sec. V-B). Returned parts carry `indices` into `fine`,
-  /// `points` and `residual`; `segment` is set to segment_id.
-  std::vector<Superquadric> recover(const Points3d& fine, const Points3d& coarse,
-                                    int segment_id) const;
+  /// `points` and `residual`; `segment` is set to segment_id. `bounds` (optional,
+  /// fit_bounds.h): what the sweep observed around the segment; the final fits (the whole
+  /// segment's, or each part's) are refined within them.
+  std::vector<Superquadric> recover(const Points3d& fine, const Points3d& coarse, int segment_id,
+                                    const FitBounds* bounds = nullptr) const;
 
   /// Threads for independent fits (compute/threads); results do not depend on it.
   /// Default: ComputeParams().resolved().

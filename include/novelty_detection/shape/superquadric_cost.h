@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "novelty_detection/shape/fit_bounds.h"
 #include "novelty_detection/shape/superquadric.h"
 
 namespace novelty_detection {
@@ -88,6 +89,50 @@ class SuperquadricBatchResidual : public ceres::CostFunction {
   mutable Eigen::MatrixXd terms_;  ///< points x the kernels' terms
   mutable double last_[11] = {};
   mutable bool cached_ = false;
+};
+
+/// The hinge on outside points (fit_bounds.h): per point weight * max(0, -r), r eq. 3's
+/// residual (negative inside the superquadric), with its derivatives; zero and flat outside.
+class SuperquadricOutsideResidual : public ceres::CostFunction {
+ public:
+  /// `q`: the outside points in the start model's frame.
+  SuperquadricOutsideResidual(const std::vector<Eigen::Vector3d>& q, double weight);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  SuperquadricBatchResidual inner_;
+  double weight_;
+};
+
+/// Support on a plane (fit_bounds.h): weight * (height of the superquadric's lowest extent
+/// along `up` above the plane up . q + offset = 0), all in the start model's frame. The
+/// lowest extent is up . c - h(R^T up), h the support function.
+struct SuperquadricSupportResidual {
+  SuperquadricSupportResidual(const Eigen::Vector3d& up, double offset, double weight)
+      : up_(up), offset_(offset), weight_(weight) {}
+
+  template <class T>
+  bool operator()(const T* const a, const T* const e, const T* const w, const T* const t,
+                  T* residual) const {
+    const T u[3] = {T(up_.x()), T(up_.y()), T(up_.z())};
+    const T minus_w[3] = {-w[0], -w[1], -w[2]};
+    T v[3];
+    ceres::AngleAxisRotatePoint(minus_w, u, v);  // Exp(w)^T up
+    using std::exp;
+    const T h = exp(logExtentCanonical(v[0], v[1], v[2], a[0], a[1], a[2], e[0], e[1]));
+    residual[0] = T(weight_) * (u[0] * t[0] + u[1] * t[1] + u[2] * t[2] - h + T(offset_));
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& up, double offset, double weight) {
+    return new ceres::AutoDiffCostFunction<SuperquadricSupportResidual, 1, 3, 2, 3, 3>(
+        new SuperquadricSupportResidual(up, offset, weight));
+  }
+
+  Eigen::Vector3d up_;
+  double offset_, weight_;
 };
 
 }  // namespace novelty_detection

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "novelty_detection/params.h"
+#include "novelty_detection/shape/fit_bounds.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
@@ -86,14 +87,21 @@ class SuperquadricFitter {
 
   const SuperquadricParams& params() const { return params_; }
 
+  /// Bounds (fit_bounds.h) that refine() and the final refinement of fit() add to the
+  /// points' cost: the hinge on outside points and, when the fitted points stand on the
+  /// floor, the support. The bounds must outlive the fits; null: none (the default).
+  void setBounds(const FitBounds* bounds) { bounds_ = bounds; }
+
  private:
   /// refine() without the input check; `frame` (optional): principalFrame(points), when
   /// the caller has it already.
+  /// `bounded`: add bounds_ (when set) to the cost.
   FitResult solve(const Points3d& points, const Superquadric& initial, int max_iterations,
-                  bool line_search, FitMeasures measures,
-                  const PrincipalFrame* frame = nullptr) const;
+                  bool line_search, FitMeasures measures, const PrincipalFrame* frame = nullptr,
+                  bool bounded = false) const;
 
   SuperquadricParams params_;
+  const FitBounds* bounds_ = nullptr;
 };
 
 /// Every `stride`-th point so that at most max_points remain (deterministic); `indices`

@@ -1,0 +1,121 @@
+// What bounds a superquadric besides its own points. A laser sees one side of an object;
+// the points say nothing of the side it did not see, and a fit to them alone may reach into
+// space the sensor saw through, through the table the object stands on, or stop short of the
+// floor. Two observations of the same sweep bound it (ROS-free):
+//
+//  - Outside points. Space the sweep saw through near the object (range image: a sample is
+//    free when the returns around its ray lie farther than it by more than a margin), and
+//    surfaces the sweep observed near it that are not the object's own (the floor around it,
+//    the table under it, a wall behind it), lie outside the object. A fit pays for every
+//    outside point that falls inside it: a hinge residual, zero outside the superquadric and
+//    eq. 3's residual inside it (F^e1 < 1), weighted so that the outside points together
+//    weigh at least as much as the object's points. Space hidden behind the object's visible
+//    surface carries no outside point, so the fit may extend there.
+//  - Support. An object whose points come down to the floor (their lowest within the floor's
+//    band plus support_fraction of their own height) stands on it: the fit's lowest extent
+//    along up, the superquadric's support function, is drawn onto the floor plane by one
+//    residual that weighs like all the points moved by the same distance; and it stands
+//    upright: the fit keeps the axis nearest to up along it and turns only about up (the
+//    objects a patrol robot meets, boxes, bins, people, doors, stand upright; a one-sided
+//    view otherwise lets a box tilt to follow the noise).
+//
+// The support function of the superquadric F = ((x/a1)^(2/e2) + (y/a2)^(2/e2))^(e2/e1) +
+// (z/a3)^(2/e1) = 1 in a unit direction v of its frame is the dual of its nested norm:
+//   h(v) = ((|a1 v1|^q2 + |a2 v2|^q2)^(q1/q2) + |a3 v3|^q1)^(1/q1),
+//   q1 = 2 / (2 - e1), q2 = 2 / (2 - e2)   (convex for e1, e2 < 2).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <vector>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/types.h"
+
+namespace novelty_detection {
+
+class RangeImage;
+
+struct FitBounds {
+  /// Points the object does not contain (see the header comment).
+  Points3d outside;
+  /// The floor: up . p + floor_offset = 0, up a unit normal. Without one, no support.
+  bool has_floor = false;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  double floor_offset = 0.0;
+  /// Points this close to the floor count as on it (ground removal's band) [m].
+  double floor_band_m = 0.0;
+  double support_fraction = 0.5;
+  double outside_weight = 1.0;
+  double support_weight = 1.0;
+  /// A standing object's fit keeps one axis along up and turns only about it.
+  bool upright = true;
+  /// The sweep's origin and its view (mirroredHiddenSide()); view null: unknown.
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+  const RangeImage* view = nullptr;
+  double margin_m = 0.0;
+  double mirror_max_free = 0.0;  ///< 0: no mirroring
+
+  bool empty() const { return outside.empty() && !has_floor; }
+  /// Height of p above the floor [m].
+  double heightAboveFloor(const Eigen::Vector3d& p) const { return up.dot(p) + floor_offset; }
+  /// Whether `points` stand on the floor: their lowest lies within floor_band_m +
+  /// support_fraction * their extent along up above it.
+  bool standsOnFloor(const Points3d& points) const;
+};
+
+/// log h(v) for a direction v in the superquadric's frame (header comment); finite for any v
+/// (guarded logs). Templated for ceres::Jet.
+template <class T>
+T logExtentCanonical(const T& v1, const T& v2, const T& v3, const T& a1, const T& a2, const T& a3,
+                     const T& e1, const T& e2) {
+  using std::log;
+  const T tiny(kSqTinySquared);
+  const T q1 = T(2.0) / (T(2.0) - e1);
+  const T q2 = T(2.0) / (T(2.0) - e2);
+  const T lx = T(0.5) * q2 * log(a1 * a1 * v1 * v1 + tiny);  // log |a1 v1|^q2
+  const T ly = T(0.5) * q2 * log(a2 * a2 * v2 * v2 + tiny);
+  const T lz = T(0.5) * q1 * log(a3 * a3 * v3 * v3 + tiny);
+  return logSumExp((q1 / q2) * logSumExp(lx, ly), lz) / q1;
+}
+
+/// Half extent of `sq` along the unit world direction u: max over its surface of
+/// u . (x - position) (the same along -u).
+double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u);
+
+/// Where the outside points of a segment come from: the sweep it belongs to, in one frame.
+struct FitBoundsSource {
+  const Cloud* sweep = nullptr;              ///< the whole sweep
+  const std::vector<int>* labels = nullptr;  ///< per sweep point: its segment id, 0 for none
+  const RangeImage* view = nullptr;          ///< the sweep from its own origin; null or empty: none
+  double margin_m = 0.05;                    ///< free means seen through by more than this (tau)
+  bool has_floor = false;
+  Eigen::Vector4d floor = Eigen::Vector4d(0, 0, 1, 0);  ///< (up, offset), up a unit normal
+  double floor_band_m = 0.0;
+};
+
+/// Bounds of segment `segment_id` (its points `segment`) from `source` and the params'
+/// free_space_* settings: outside points within an inflated box about the segment (free
+/// samples on a grid, and sweep points of other segments or of none that lie farther than
+/// the margin and twice the segment's point spacing from its points), evenly thinned to at
+/// most bound_points; the floor when the source has one. Empty when bounds are disabled.
+FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsSource& source,
+                       const SuperquadricParams& params);
+
+/// The hidden side of a one-sided view by symmetry (as for grasping under incomplete
+/// observation: Bohg et al., ICRA 2011; Quispe et al., ICRA 2015). A superquadric is
+/// symmetric about its centre; the two ends of the silhouette across the view (the points of
+/// lowest and highest lateral coordinate) are each other's reflection, so their midpoint is
+/// the centre's place on the floor plan. `points` reflected about the vertical axis through
+/// it (heights kept): a cylinder's or a sphere's visible half gains its hidden half, a box
+/// seen across a corner its two hidden faces, a flat leaf maps onto itself. Empty (no
+/// mirroring) for points that do not stand on the floor, without a view, or when more
+/// than mirror_max_free of the mirrored points lie in space the sweep saw through.
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds);
+
+/// Outside points of `bounds` inside `sq` by more than `tolerance_m` (radially) [count].
+int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m);
+
+}  // namespace novelty_detection

@@ -1,0 +1,164 @@
+#include "novelty_detection/shape/fit_bounds.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "novelty_detection/point_grid.h"
+#include "novelty_detection/shape/superquadric_fit.h"
+#include "novelty_detection/visibility/visibility.h"
+
+namespace novelty_detection {
+namespace {
+// Free-space samples per segment: the grid over the inflated box has about this many cells.
+constexpr double kGridCells = 4096.0;
+// The box about a segment is inflated by this fraction of its largest extent on every side
+// (a fit's sizes and centre are bounded to about that reach, superquadric/max_size_factor).
+constexpr double kInflate = 0.5;
+}  // namespace
+
+bool FitBounds::standsOnFloor(const Points3d& points) const {
+  if (!has_floor || points.empty()) return false;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& p : points) {
+    const double h = heightAboveFloor(p);
+    lo = std::min(lo, h);
+    hi = std::max(hi, h);
+  }
+  return lo <= floor_band_m + support_fraction * (hi - lo);
+}
+
+double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u) {
+  const Eigen::Vector3d v = sq.rotation().transpose() * u;
+  return std::exp(logExtentCanonical(v.x(), v.y(), v.z(), sq.a[0], sq.a[1], sq.a[2], sq.e1, sq.e2));
+}
+
+FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsSource& source,
+                       const SuperquadricParams& params) {
+  FitBounds bounds;
+  if (!params.bounded_fit || segment.empty()) return bounds;
+  bounds.outside_weight = params.outside_weight;
+  bounds.support_weight = params.support_weight;
+  bounds.support_fraction = params.support_fraction;
+  bounds.upright = params.upright;
+  bounds.margin_m = source.margin_m;
+  bounds.mirror_max_free = params.mirror_max_free;
+  if (source.view && !source.view->empty()) {
+    bounds.view = source.view;
+    bounds.viewpoint = source.view->origin().cast<double>();
+  }
+  if (source.has_floor && source.floor.head<3>().allFinite() &&
+      std::abs(source.floor.head<3>().norm() - 1.0) < 1e-6) {
+    bounds.has_floor = true;
+    bounds.up = source.floor.head<3>();
+    bounds.floor_offset = source.floor[3];
+    bounds.floor_band_m = source.floor_band_m;
+  }
+
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& p : segment) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  if (!lo.allFinite() || !hi.allFinite()) return bounds;
+  const double reach = kInflate * (hi - lo).maxCoeff() + source.margin_m;
+  lo.array() -= reach;
+  hi.array() += reach;
+  const double spacing = medianSpacing(segment);
+  // Sweep points nearer than this to the segment may be its own (missed by segmentation).
+  const double own = std::max(source.margin_m, 2.0 * spacing);
+  Points3d outside;
+
+  // Space the sweep saw through, sampled on a grid over the box.
+  if (source.view && !source.view->empty()) {
+    const Eigen::Vector3d size = hi - lo;
+    const double step =
+        std::max(std::cbrt(size.prod() / kGridCells), std::max(source.margin_m, 1e-3));
+    for (double x = lo.x() + 0.5 * step; x < hi.x(); x += step) {
+      for (double y = lo.y() + 0.5 * step; y < hi.y(); y += step) {
+        for (double z = lo.z() + 0.5 * step; z < hi.z(); z += step) {
+          const Eigen::Vector3d p(x, y, z);
+          if (source.view->classify(p.cast<float>(), source.margin_m) == Visibility::kFree)
+            outside.push_back(p);
+        }
+      }
+    }
+  }
+  // Surfaces observed near the segment that are not its own.
+  if (source.sweep && source.labels && source.labels->size() == source.sweep->size()) {
+    std::unique_ptr<PointGrid> grid;
+    if (own > 0.0) grid = std::make_unique<PointGrid>(segment, own);
+    const Cloud& sweep = *source.sweep;
+    for (std::size_t i = 0; i < sweep.size(); ++i) {
+      if ((*source.labels)[i] == segment_id) continue;
+      const Eigen::Vector3d p = sweep[i].getVector3fMap().cast<double>();
+      if (!p.allFinite() || (p.array() < lo.array()).any() || (p.array() > hi.array()).any())
+        continue;
+      if (grid && grid->nearest(p) >= 0) continue;
+      outside.push_back(p);
+    }
+  }
+  bounds.outside = subsample(outside, params.bound_points);
+  return bounds;
+}
+
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds) {
+  if (!bounds.view || bounds.mirror_max_free <= 0.0 || points.size() < 11 ||
+      !bounds.standsOnFloor(points))
+    return {};
+  // Horizontal view direction v and lateral direction u.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Vector3d v = centroid - bounds.viewpoint;
+  v -= v.dot(bounds.up) * bounds.up;
+  if (v.norm() < 1e-9) return {};
+  v.normalize();
+  const Eigen::Vector3d u = bounds.up.cross(v);
+  // The silhouette's two ends: the points within the outer 2 % of the lateral range on
+  // each side; the middle of their median positions is the centre of a centrally
+  // symmetric object (medians: the range noise of grazing rays scatters them in depth).
+  double u_lo = std::numeric_limits<double>::infinity(), u_hi = -u_lo;
+  for (const auto& p : points) {
+    u_lo = std::min(u_lo, u.dot(p));
+    u_hi = std::max(u_hi, u.dot(p));
+  }
+  const double band = 0.02 * (u_hi - u_lo);
+  std::vector<double> left_depth, right_depth;
+  Eigen::Vector3d centre = 0.5 * (u_lo + u_hi) * u;
+  for (const auto& p : points) {
+    const double lateral = u.dot(p);
+    if (lateral <= u_lo + band) left_depth.push_back(v.dot(p));
+    if (lateral >= u_hi - band) right_depth.push_back(v.dot(p));
+  }
+  const auto median = [](std::vector<double>& x) {
+    std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2), x.end());
+    return x[x.size() / 2];
+  };
+  centre += 0.5 * (median(left_depth) + median(right_depth)) * v;
+  // Point reflection about the vertical axis through the centre (height kept).
+  Points3d mirrored;
+  mirrored.reserve(points.size());
+  std::size_t free = 0;
+  for (const auto& p : points) {
+    Eigen::Vector3d d = p - centre;
+    d -= d.dot(bounds.up) * bounds.up;
+    const Eigen::Vector3d m = p - 2.0 * d;
+    if (bounds.view->classify(m.cast<float>(), bounds.margin_m) == Visibility::kFree) ++free;
+    mirrored.push_back(m);
+  }
+  if (static_cast<double>(free) > bounds.mirror_max_free * static_cast<double>(mirrored.size()))
+    return {};
+  return mirrored;
+}
+
+int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m) {
+  int n = 0;
+  for (const auto& p : bounds.outside)
+    if (insideOutside(sq, p) < 1.0 && radialDistance(sq, p) > tolerance_m) ++n;
+  return n;
+}
+
+}  // namespace novelty_detection

@@ -1,0 +1,233 @@
+// Bounded superquadric fits (shape/fit_bounds.h): the support function, the floor test, the
+// hidden side by symmetry, and one-sided simulated laser views of standing objects whose
+// true superquadrics are known.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "novelty_detection/params.h"
+#include "novelty_detection/shape/fit_bounds.h"
+#include "novelty_detection/shape/shape_retrieval.h"
+#include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/shape/superquadric_fit.h"
+#include "novelty_detection/sim/scene.h"
+#include "novelty_detection/visibility/visibility.h"
+
+using namespace novelty_detection;
+
+namespace {
+
+Superquadric makeSq(const Eigen::Vector3d& a, double e1, double e2, const Eigen::Vector3d& euler,
+                    const Eigen::Vector3d& position) {
+  Superquadric sq;
+  sq.a = a;
+  sq.e1 = e1;
+  sq.e2 = e2;
+  sq.euler = euler;
+  sq.position = position;
+  return sq;
+}
+
+/// Mean over the sorted axes of |fitted - true| [m].
+double semiAxisError(const Superquadric& fit, const Superquadric& truth) {
+  Eigen::Vector3d a = fit.a, b = truth.a;
+  std::sort(a.data(), a.data() + 3);
+  std::sort(b.data(), b.data() + 3);
+  return (a - b).cwiseAbs().mean();
+}
+
+}  // namespace
+
+TEST(FitBounds, ExtentAlongIsTheSurfacesFarthestReach) {
+  const Superquadric shapes[] = {makeSq({0.4, 0.4, 0.4}, 1.0, 1.0, {0, 0, 0}, {1, 2, 3}),
+                                 makeSq({0.3, 0.2, 0.5}, 0.1, 0.1, {0.3, 0.4, -0.2}, {0, 0, 0}),
+                                 makeSq({0.2, 0.2, 0.6}, 0.1, 1.0, {0.0, 1.2, 0.5}, {-1, 0, 0.5}),
+                                 makeSq({0.25, 0.35, 0.3}, 0.6, 1.4, {1.0, 0.5, 2.0}, {0, 0, 0})};
+  const Eigen::Vector3d directions[] = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d(1, 1, 0),
+                                        Eigen::Vector3d(0.3, -0.5, 0.8)};
+  for (const auto& sq : shapes) {
+    const Points3d surface = sampleSurface(sq, 20000);
+    for (Eigen::Vector3d u : directions) {
+      u.normalize();
+      double reach = 0.0;
+      for (const auto& p : surface) reach = std::max(reach, u.dot(p - sq.position));
+      // The sampled surface reaches a little less far than the exact support.
+      EXPECT_NEAR(extentAlong(sq, u), reach, 0.01 * reach + 0.002)
+          << "e " << sq.e1 << " " << sq.e2 << " u " << u.transpose();
+      EXPECT_GE(extentAlong(sq, u), reach - 1e-9);
+      EXPECT_NEAR(extentAlong(sq, -u), extentAlong(sq, u), 1e-12);
+    }
+  }
+}
+
+TEST(FitBounds, AnObjectStandsOnTheFloorWhenItsPointsComeDownToIt) {
+  FitBounds b;
+  b.has_floor = true;
+  b.up = Eigen::Vector3d::UnitZ();
+  b.floor_offset = -0.1;  // floor at z = 0.1
+  b.floor_band_m = 0.02;
+  b.support_fraction = 0.5;
+  // Points from 0.3 to 1.3 m above the floor: 0.3 <= 0.02 + 0.5 * 1.0.
+  EXPECT_TRUE(b.standsOnFloor({{0, 0, 0.4}, {0, 0, 1.4}}));
+  // From 0.5 to 0.9: 0.5 > 0.02 + 0.5 * 0.4 (a box on a table).
+  EXPECT_FALSE(b.standsOnFloor({{0, 0, 0.6}, {0, 0, 1.0}}));
+  b.has_floor = false;
+  EXPECT_FALSE(b.standsOnFloor({{0, 0, 0.1}, {0, 0, 1.0}}));
+}
+
+// The front half of a standing cylinder seen from one side: reflected about the vertical
+// axis through the middle of its silhouette, the points land on the hidden half.
+TEST(FitBounds, TheHiddenHalfOfACylinderIsItsVisibleHalfReflected) {
+  const double r = 0.3;
+  const Eigen::Vector3d axis(2.0, 1.0, 0.0);
+  const Eigen::Vector3d origin(-3.0, 0.0, 0.6);
+  const double toward = std::atan2(origin.y() - axis.y(), origin.x() - axis.x());
+  Cloud cloud;
+  Points3d front;
+  for (int i = 0; i < 60; ++i) {
+    for (int k = 0; k < 20; ++k) {
+      const double phi = toward + M_PI * (i / 59.0 - 0.5);  // the half facing the sensor
+      const Eigen::Vector3d p =
+          axis + Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), 0.05 + 0.04 * k);
+      front.push_back(p);
+      cloud.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    }
+  }
+  RangeImage view;
+  view.build(cloud, {}, origin.cast<float>(), RangeImage::Config());
+  FitBounds b;
+  b.has_floor = true;
+  b.floor_band_m = 0.02;
+  b.view = &view;
+  b.viewpoint = origin;
+  b.margin_m = 0.02;
+  b.mirror_max_free = 0.1;
+  const Points3d back = mirroredHiddenSide(front, b);
+  ASSERT_EQ(back.size(), front.size());
+  const Eigen::Vector3d ahead =
+      Eigen::Vector3d(axis.x() - origin.x(), axis.y() - origin.y(), 0).normalized();
+  // The silhouette's ends are taken from a band of points just inside them: the centre comes
+  // out about a tenth of the radius towards the sensor.
+  double radius_error = 0.0, hidden = 0.0;
+  for (const auto& m : back) {
+    radius_error += std::abs(std::hypot(m.x() - axis.x(), m.y() - axis.y()) - r);
+    hidden += (m - axis).dot(ahead) > 0.0 ? 1.0 : 0.0;
+  }
+  EXPECT_LT(radius_error / back.size(), 0.15 * r);  // measured 0.12 r
+  EXPECT_GT(hidden / back.size(), 0.8);             // measured 0.83
+  // Not standing: no reflection.
+  b.has_floor = false;
+  EXPECT_TRUE(mirroredHiddenSide(front, b).empty());
+}
+
+namespace {
+
+struct BoundedCase {
+  double unbounded_error = 0.0, bounded_error = 0.0;
+  int violations = 0, outside = 0;
+  bool fitted = false;
+};
+
+/// One standing object of `kind` in a simulated scene (seed), fitted as the detector does:
+/// bounds from the whole sweep, its labels (the true ones here), its view and the floor.
+BoundedCase fitStanding(sim::NoveltyKind kind, std::uint64_t seed) {
+  sim::SceneConfig cfg;
+  cfg.seed = seed;
+  cfg.novelty_kinds = {kind};
+  const sim::ScenePair scene = sim::generateScenePair(cfg);
+  BoundedCase c;
+  if (scene.objects.empty()) return c;
+  const auto& object = scene.objects.front();
+  Points3d fine;
+  for (std::size_t i = 0; i < scene.current.size(); ++i)
+    if (scene.current_labels[i] == object.id)
+      fine.emplace_back(scene.current[i].x, scene.current[i].y, scene.current[i].z);
+  if (fine.size() < 50) return c;
+  const Points3d coarse = subsample(fine, static_cast<int>(fine.size() / 8) + 11);
+  const double sigma = std::sqrt(cfg.laser.noise_variance_m2);
+  RangeImage view;
+  view.build(scene.current, {}, scene.current.sensor_origin_.head<3>(),
+             rangeImageConfig(VisibilityParams()));
+  FitBoundsSource source;
+  source.sweep = &scene.current;
+  source.labels = &scene.current_labels;
+  source.view = &view;
+  source.margin_m = 3.0 * sigma;  // about the detector's tau at this noise
+  source.has_floor = true;
+  source.floor = Eigen::Vector4d(0, 0, 1, 0);
+  source.floor_band_m = 3.0 * sigma;
+  const SuperquadricParams params;
+  const FitBounds bounds = fitBoundsFor(fine, object.id, source, params);
+  const ShapeRetrieval retrieval(params);
+  const auto loose = retrieval.recover(fine, coarse, object.id);
+  const auto tight = retrieval.recover(fine, coarse, object.id, &bounds);
+  if (loose.size() != 1 || tight.size() != 1) return c;
+  const Superquadric& truth = object.parts.front().sq;
+  c.fitted = true;
+  c.unbounded_error = semiAxisError(loose[0], truth);
+  c.bounded_error = semiAxisError(tight[0], truth);
+  c.violations = outsideViolations(tight[0], bounds, source.margin_m);
+  c.outside = static_cast<int>(bounds.outside.size());
+  return c;
+}
+
+}  // namespace
+
+namespace {
+struct BoundedTolerance {
+  double semi_axis_m;  ///< the bounded fits' mean semi-axis error stays below this
+  bool improves;       ///< and below the unbounded fits'
+};
+const BoundedTolerance& toleranceFor(sim::NoveltyKind kind) {
+  static const BoundedTolerance box{0.035, true}, cylinder{0.08, true}, sphere{0.065, false},
+      superellipsoid{0.06, true};
+  switch (kind) {
+    case sim::NoveltyKind::kBox:
+      return box;
+    case sim::NoveltyKind::kCylinder:
+      return cylinder;
+    case sim::NoveltyKind::kSphere:
+      return sphere;
+    default:
+      return superellipsoid;
+  }
+}
+}  // namespace
+
+class BoundedKind : public ::testing::TestWithParam<sim::NoveltyKind> {};
+
+// One-sided views at the paper's noise (sigma ~ 3.2 cm), seeds 1-10: the bounded fits'
+// semi-axes come closer to the truth than the points alone allow, and no outside point
+// lies inside a bounded fit by more than the margin.
+TEST_P(BoundedKind, OneSidedViewsAreSizedByWhatTheSweepSaw) {
+  double loose = 0.0, tight = 0.0;
+  int n = 0, violations = 0, outside = 0;
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    const BoundedCase c = fitStanding(GetParam(), seed);
+    if (!c.fitted) continue;
+    ++n;
+    loose += c.unbounded_error;
+    tight += c.bounded_error;
+    violations += c.violations;
+    outside += c.outside;
+  }
+  ASSERT_GE(n, 3) << sim::toString(GetParam());
+  loose /= n;
+  tight /= n;
+  RecordProperty("unbounded_semi_axis_mm", static_cast<int>(1000 * loose));
+  RecordProperty("bounded_semi_axis_mm", static_cast<int>(1000 * tight));
+  EXPECT_GT(outside, 0);
+  EXPECT_EQ(violations, 0) << sim::toString(GetParam());
+  const BoundedTolerance& tol = toleranceFor(GetParam());
+  EXPECT_LT(tight, tol.semi_axis_m) << sim::toString(GetParam());
+  // Measured (seeds 1-10), unbounded -> bounded: box 87 -> 28 mm, cylinder 85 -> 70,
+  // superellipsoid 55 -> 50; a sphere's one-sided cap is sized well by its curvature alone
+  // (38 -> 55 mm).
+  if (tol.improves) EXPECT_LT(tight, loose) << sim::toString(GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Kinds, BoundedKind,
+                         ::testing::Values(sim::NoveltyKind::kBox, sim::NoveltyKind::kCylinder,
+                                           sim::NoveltyKind::kSphere,
+                                           sim::NoveltyKind::kSuperellipsoid));
