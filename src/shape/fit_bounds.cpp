@@ -16,6 +16,10 @@ constexpr double kGridCells = 4096.0;
 // The box about a segment is inflated by this fraction of its largest extent on every side
 // (a fit's sizes and centre are bounded to about that reach, superquadric/max_size_factor).
 constexpr double kInflate = 0.5;
+// An axis within about 8 degrees of up is the upright axis of a fit.
+constexpr double kUprightCos = 0.99;
+// Steps of the search for the first free space above a fit's top [m] (at least).
+constexpr double kGapStepM = 0.01;
 }  // namespace
 
 bool FitBounds::standsOnFloor(const Points3d& points) const {
@@ -152,6 +156,56 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds) {
   if (static_cast<double>(free) > bounds.mirror_max_free * static_cast<double>(mirrored.size()))
     return {};
   return mirrored;
+}
+
+namespace {
+/// Where the search from `start` along `dir` first meets space the sweep saw through (up to
+/// `reach`, in `step`s): the middle of the gap before it, or false.
+bool gapMiddle(const RangeImage& view, const Eigen::Vector3d& start, const Eigen::Vector3d& dir,
+               double step, double reach, Eigen::Vector3d* middle) {
+  for (double h = step; h <= reach; h += step) {
+    if (view.classify((start + h * dir).cast<float>(), 0.0) == Visibility::kFree) {
+      *middle = start + 0.5 * (h - step) * dir;
+      return true;
+    }
+  }
+  return false;
+}
+}  // namespace
+
+Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
+  Points3d out;
+  if (!bounds.view || !bounds.has_floor) return out;
+  const Eigen::Matrix3d r = sq.rotation();
+  int k = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(r.col(j).dot(bounds.up)) > std::abs(r.col(k).dot(bounds.up))) k = j;
+  if (std::abs(r.col(k).dot(bounds.up)) < kUprightCos) return out;
+  const Eigen::Vector3d up = r.col(k).dot(bounds.up) > 0.0 ? r.col(k) : Eigen::Vector3d(-r.col(k));
+  const int i = (k + 1) % 3, j = (k + 2) % 3;
+  Eigen::Vector3d middle;
+  // Up: a 3 x 3 grid of columns over the top face.
+  const double up_step = std::max(kGapStepM, sq.a[k] / 50.0);
+  for (double oi : {-0.5, 0.0, 0.5}) {
+    for (double oj : {-0.5, 0.0, 0.5}) {
+      const Eigen::Vector3d start =
+          sq.position + sq.a[k] * up + oi * sq.a[i] * r.col(i) + oj * sq.a[j] * r.col(j);
+      if (gapMiddle(*bounds.view, start, up, up_step, 2.0 * sq.a[k], &middle))
+        out.push_back(middle);
+    }
+  }
+  // Across: both ways along each horizontal axis, at three heights.
+  for (int m : {i, j}) {
+    const double step = std::max(kGapStepM, sq.a[m] / 50.0);
+    for (double sign : {1.0, -1.0}) {
+      const Eigen::Vector3d dir = sign * r.col(m);
+      for (double o : {-0.5, 0.0, 0.5}) {
+        const Eigen::Vector3d start = sq.position + sq.a[m] * dir + o * sq.a[k] * up;
+        if (gapMiddle(*bounds.view, start, dir, step, sq.a[m], &middle)) out.push_back(middle);
+      }
+    }
+  }
+  return out;
 }
 
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m) {

@@ -89,9 +89,21 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   split_merge.setThreads(threads_);
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
-    if (bounds && !bounds->empty())
-      best = bounded.refine(seen_and_mirrored.empty() ? sub : seen_and_mirrored, best.sq, -1, true,
-                            FitMeasures::kNone);
+    if (bounds && !bounds->empty()) {
+      const Points3d& data = seen_and_mirrored.empty() ? sub : seen_and_mirrored;
+      best = bounded.refine(data, best.sq, -1, true, FitMeasures::kNone);
+      // Then once more with the middles of the gaps the sweep left around it, together
+      // weighing a quarter of the points.
+      const Points3d middles =
+          bounds->standsOnFloor(sub) ? gapMiddles(best.sq, *bounds) : Points3d();
+      if (!middles.empty()) {
+        Points3d with_gaps = data;
+        const std::size_t copies = std::max<std::size_t>(1, data.size() / (4 * middles.size()));
+        for (std::size_t c = 0; c < copies; ++c)
+          with_gaps.insert(with_gaps.end(), middles.begin(), middles.end());
+        best = bounded.refine(with_gaps, best.sq, -1, true, FitMeasures::kNone);
+      }
+    }
     parts.front().fit = best;
   }
 

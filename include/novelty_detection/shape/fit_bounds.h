@@ -115,6 +115,17 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// than mirror_max_free of the mirrored points lie in space the sweep saw through.
 Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds);
 
+/// Where a standing, upright fit's surface most likely lies where the sweep did not see it:
+/// the middles of the gaps between the fit's surface and the first space the sweep saw
+/// through beyond it. A tilting laser's lines leave vertical gaps of several cm at a few
+/// metres, and returns at an object's silhouette are sparse and often lost; the true surface
+/// lies anywhere in such a gap, so its middle is the unbiased estimate. Searched (margin 0)
+/// upwards from the top at a 3 x 3 grid over the top face, and both ways along each
+/// horizontal axis at three heights, each search up to the fit's own size. A side facing the
+/// sensor meets free space at once (its middle is on the surface) and a hidden side never
+/// (no middle). Empty without a view, a floor or an upright axis.
+Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
+
 /// Outside points of `bounds` inside `sq` by more than `tolerance_m` (radially) [count].
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m);
 
