@@ -18,6 +18,10 @@ constexpr double kGridCells = 4096.0;
 constexpr double kInflate = 0.5;
 // An axis within about 8 degrees of up is the upright axis of a fit.
 constexpr double kUprightCos = 0.99;
+// Shape exponent of a sharp corner (the fit's lower bound by default).
+constexpr double kCornerExponent = 0.1;
+// The silhouette's ends: this share of its width at each side.
+constexpr double kEndBand = 0.02;
 // Steps of the search for the first free space above a fit's top [m] (at least).
 constexpr double kGapStepM = 0.01;
 }  // namespace
@@ -108,7 +112,7 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   return bounds;
 }
 
-Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds) {
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness) {
   if (!bounds.view || bounds.mirror_max_free <= 0.0 || points.size() < 11 ||
       !bounds.standsOnFloor(points))
     return {};
@@ -129,7 +133,7 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds) {
     u_lo = std::min(u_lo, u.dot(p));
     u_hi = std::max(u_hi, u.dot(p));
   }
-  const double band = 0.02 * (u_hi - u_lo);
+  const double band = kEndBand * (u_hi - u_lo);
   std::vector<double> left_depth, right_depth;
   Eigen::Vector3d centre = 0.5 * (u_lo + u_hi) * u;
   for (const auto& p : points) {
@@ -142,6 +146,18 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds) {
     return x[x.size() / 2];
   };
   centre += 0.5 * (median(left_depth) + median(right_depth)) * v;
+  // A round silhouette's ends are tangent points, in front of the centre by r^2 / D, and
+  // the band's median lies in front of them by about r sqrt(2 f - f^2) (f: the band's
+  // share of the width); a box's ends are its corners, level with the centre.
+  if (roundness > 0.0) {
+    const double r = 0.5 * (u_hi - u_lo);
+    Eigen::Vector3d to_centre = centre + bounds.viewpoint.dot(bounds.up) * bounds.up -
+                                bounds.viewpoint;  // horizontal, as centre has no height
+    to_centre -= to_centre.dot(bounds.up) * bounds.up;
+    const double distance = std::max(to_centre.norm(), r);
+    centre += std::min(1.0, roundness) *
+              (r * std::sqrt(2.0 * kEndBand - kEndBand * kEndBand) + r * r / distance) * v;
+  }
   // Point reflection about the vertical axis through the centre (height kept).
   Points3d mirrored;
   mirrored.reserve(points.size());
@@ -206,6 +222,17 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
     }
   }
   return out;
+}
+
+double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up) {
+  const Eigen::Matrix3d r = sq.rotation();
+  int k = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(r.col(j).dot(up)) > std::abs(r.col(k).dot(up))) k = j;
+  if (std::abs(r.col(k).dot(up)) < kUprightCos) return 0.0;
+  // z up: the section is the x-y one, shaped by e2; x or y up: it holds z, shaped by e1.
+  const double e = k == 2 ? sq.e2 : sq.e1;
+  return std::min(1.0, std::max(0.0, (e - kCornerExponent) / (1.0 - kCornerExponent)));
 }
 
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m) {

@@ -34,16 +34,16 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   Indices sm_index;
   const Points3d sm_points = subsample(fine, params_.split_max_points, &sm_index);
   const Points3d sub = subsample(sm_points, params_.max_fit_points);
-  // The final bounded fit also sees the hidden side by symmetry (fit_bounds.h).
-  Points3d seen_and_mirrored;
-  if (bounds) {
-    const Points3d mirrored = mirroredHiddenSide(sub, *bounds);
-    if (!mirrored.empty()) {
-      seen_and_mirrored = sub;
-      seen_and_mirrored.insert(seen_and_mirrored.end(), mirrored.begin(), mirrored.end());
-      seen_and_mirrored = subsample(seen_and_mirrored, params_.max_fit_points);
-    }
-  }
+  // The final bounded fit also sees the hidden side by symmetry (fit_bounds.h): the points
+  // with their reflection, thinned to the fit's point budget; just the points without one.
+  const auto with_hidden_side = [&](double roundness) {
+    if (!bounds) return sub;
+    const Points3d mirrored = mirroredHiddenSide(sub, *bounds, roundness);
+    if (mirrored.empty()) return sub;
+    Points3d both = sub;
+    both.insert(both.end(), mirrored.begin(), mirrored.end());
+    return subsample(both, params_.max_fit_points);
+  };
 
   // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
   // points, and a fit on the finer points from the moment initialisation; the lower mean
@@ -90,8 +90,12 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {
-      const Points3d& data = seen_and_mirrored.empty() ? sub : seen_and_mirrored;
-      best = bounded.refine(data, best.sq, -1, true, FitMeasures::kNone);
+      best = bounded.refine(with_hidden_side(0.0), best.sq, -1, true, FitMeasures::kNone);
+      // A round section's silhouette ends lie in front of its centre: mirror again knowing
+      // how round the first fit came out.
+      const double roundness = bounds->has_floor ? horizontalRoundness(best.sq, bounds->up) : 0.0;
+      const Points3d data = with_hidden_side(roundness);
+      if (roundness > 0.0) best = bounded.refine(data, best.sq, -1, true, FitMeasures::kNone);
       // Then once more with the middles of the gaps the sweep left around it, together
       // weighing a quarter of the points.
       const Points3d middles =

@@ -113,7 +113,11 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// seen across a corner its two hidden faces, a flat leaf maps onto itself. Empty (no
 /// mirroring) for points that do not stand on the floor, without a view, or when more
 /// than mirror_max_free of the mirrored points lie in space the sweep saw through.
-Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds);
+/// `roundness` in [0, 1]: how round the object's horizontal section is (0: cornered, its
+/// silhouette's ends are corners level with the centre; 1: round, they are tangent points
+/// in front of it), from a first fit's exponent.
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds,
+                            double roundness = 0.0);
 
 /// Where a standing, upright fit's surface most likely lies where the sweep did not see it:
 /// the middles of the gaps between the fit's surface and the first space the sweep saw
@@ -125,6 +129,10 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds);
 /// sensor meets free space at once (its middle is on the surface) and a hidden side never
 /// (no middle). Empty without a view, a floor or an upright axis.
 Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
+
+/// How round the horizontal section of an upright `sq` is: 0 for a cornered section
+/// (exponent 0.1) to 1 for a round one (exponent 1 or more); 0 when no axis is along `up`.
+double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up);
 
 /// Outside points of `bounds` inside `sq` by more than `tolerance_m` (radially) [count].
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m);
