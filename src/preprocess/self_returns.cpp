@@ -116,6 +116,13 @@ Eigen::AlignedBox3f parseBodyBox(const std::string& text) {
   return Eigen::AlignedBox3f(lo, hi);
 }
 
+double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& to) {
+  // The twist about z of the rotation from `from` to `to` (swing-twist decomposition).
+  const Eigen::Quaternionf rel = to.normalized() * from.normalized().conjugate();
+  const double twist = 2.0 * std::atan2(static_cast<double>(rel.z()), static_cast<double>(rel.w()));
+  return std::abs(std::remainder(twist, 2.0 * M_PI));
+}
+
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m) {
   SelfReturns s;
@@ -127,13 +134,15 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     return s;
   s.checked = true;
   double max_range = params.self_filter ? params.self_max_range_m : 0.0;
-  // A sensor that moved (and turned, at the filter's range) by less than the novelty
-  // distance sees its robot within that distance of where it was: not a change anyway.
+  // A sensor that moved (and turned about up, at the filter's range) by less than the
+  // novelty distance sees its robot within that distance of where it was: not a change
+  // anyway. Only the turn about up counts: a tilting or nodding head pitches and rolls within
+  // every sweep without its robot moving.
   const double moved =
       (current.sensor_origin_.head<3>() - reference.sensor_origin_.head<3>()).norm() +
-      max_range * reference.sensor_orientation_.normalized().angularDistance(
-                      current.sensor_orientation_.normalized());
-  if (moved < novelty_distance_m) max_range = 0.0;
+      max_range * headingChange(reference.sensor_orientation_, current.sensor_orientation_);
+  s.sought = moved >= novelty_distance_m && max_range > 0.0;
+  if (!s.sought) max_range = 0.0;
   const Distinct rd(reference), cd(current);
   std::vector<int> ri, ci;
   const Points rn = nearInSensorFrame(reference, rd.unique, params.min_range_m, max_range, body,

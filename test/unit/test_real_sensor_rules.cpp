@@ -355,6 +355,35 @@ TEST(SelfReturns, BodyBoxIsTheRobotInBothSweeps) {
   EXPECT_NO_THROW(p.validate());
 }
 
+// A tilting laser's head pitches within every sweep: a sweep whose sensor orientation is
+// the head's at its stamp has not moved the robot, and its returns are not sought (seeking
+// them would take a second pass over the sweep). A turn about up is a move.
+TEST(SelfReturns, ATiltingHeadIsNotAMove) {
+  const auto q = [](double angle, const Eigen::Vector3f& axis) {
+    return Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(angle), axis));
+  };
+  const Eigen::Quaternionf level = q(0.3, Eigen::Vector3f::UnitZ());
+  const Eigen::Vector3f y = Eigen::Vector3f::UnitY(), x = Eigen::Vector3f::UnitX();
+  EXPECT_NEAR(headingChange(level, level * q(0.5, y)), 0.0, 1e-6);   // pitched
+  EXPECT_NEAR(headingChange(level, level * q(-0.4, x)), 0.0, 1e-6);  // rolled
+  EXPECT_NEAR(headingChange(level, q(M_PI / 2, Eigen::Vector3f::UnitZ()) * level * q(0.5, y)),
+              M_PI / 2, 1e-5);  // turned a quarter and pitched
+  EXPECT_NEAR(headingChange(level, q(-3.0, Eigen::Vector3f::UnitZ()) * level), 3.0, 1e-5);
+
+  const Eigen::Vector3d at(0, 0, 0.6);
+  std::vector<int> body;
+  const Cloud ref = sweepWithRobotPart(at, 1, bodyTop(at, 1), &body);
+  ASSERT_TRUE(findSelfReturns(ref, ref, PreprocessParams(), 0.05).checked);
+  Cloud pitched = ref;
+  pitched.sensor_orientation_ = ref.sensor_orientation_ * q(0.6, y);
+  const SelfReturns tilt = findSelfReturns(ref, pitched, PreprocessParams(), 0.05);
+  EXPECT_TRUE(tilt.checked);
+  EXPECT_FALSE(tilt.sought);
+  Cloud turned = ref;
+  turned.sensor_orientation_ = q(0.5, Eigen::Vector3f::UnitZ()) * ref.sensor_orientation_;
+  EXPECT_TRUE(findSelfReturns(ref, turned, PreprocessParams(), 0.05).sought);
+}
+
 // Half the points moved: tau stays at the noise scale of the half that matches.
 TEST(NoveltyDistance, HoldsWhenMuchOfTheSceneChanged) {
   std::mt19937 rng(7);

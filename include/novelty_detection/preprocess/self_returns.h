@@ -36,19 +36,27 @@
 namespace novelty_detection {
 
 struct SelfReturns {
-  bool checked = false;                 ///< both origins known and the filter on
+  bool checked = false;  ///< both origins known and the filter on
+  /// The sensor moved or turned about up by enough that the robot's returns were sought
+  /// (else only min_range_m and body_box applied).
+  bool sought = false;
   std::vector<std::uint8_t> current;    ///< per current point: 1 = self-return (or too close)
   std::vector<std::uint8_t> reference;  ///< per reference point: 1 = self-return (or too close)
   std::size_t current_count = 0, reference_count = 0;
   double tolerance_m = 0.0;
 };
 
-/// `novelty_distance_m`: when the sensor moved (plus its turn times self_max_range_m) by
-/// less than this, the robot's returns are within it of where they were and are no change:
-/// only min_range_m applies.
+/// `novelty_distance_m`: when the sensor moved (plus its turn about up, z, times
+/// self_max_range_m) by less than this, the robot's returns are within it of where they were
+/// and are no change: only min_range_m applies. The clouds are in a frame whose z is up (the
+/// pipeline's up frame); pitch and roll of the sensor (a tilting laser's head) do not count.
 /// The box of preprocess/body_box: "" gives an empty box; six numbers with min <= max on
 /// each axis give it; anything else throws std::invalid_argument naming the parameter.
 Eigen::AlignedBox3f parseBodyBox(const std::string& text);
+
+/// Angle [rad, 0..pi] by which the orientation `to` is turned about z from `from` (the twist
+/// of the relative rotation): a pure pitch or roll gives 0.
+double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& to);
 
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0);
