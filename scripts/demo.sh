@@ -20,10 +20,11 @@ ls -l "$OUT/scene"
 
 # The bag holds the reference sweep, then the current one (/sweep in map, /scan, /tf).
 # The detector compares both with ref.pcd: the first should show nothing, the second the
-# inserted objects.
+# inserted objects. The laser's pose on /tf (sensor_frame) is each sweep's viewpoint: the
+# free-space reasoning and the fits bounded by what the sweep saw need it.
 log "replaying $OUT/scene/scans.bag through the detector nodelet (reference: ref.pcd)"
 source_devel
 roslaunch novelty_detection replay.launch bag:="$OUT/scene/scans.bag" \
-  reference_file:="$OUT/scene/ref.pcd" print:=true print_count:=2 2>&1 |
+  reference_file:="$OUT/scene/ref.pcd" sensor_frame:=laser print:=true print_count:=2 2>&1 |
   grep -E --line-buffered "^(sweep|  novelty|    superquadric|print_novelties)|ERROR|FATAL" || true
 log "ground truth: $OUT/scene/scene.json (labels: gt_labels.txt)"

@@ -17,7 +17,7 @@ if [ "$MODE" = demo ]; then
   # rviz needs a few seconds to start; the bag plays after 8 s and lasts ~2 s; the last
   # (current) sweep and its results stay on screen.
   LAUNCH_ARGS=(replay.launch bag:="$SCENE/scans.bag" reference_file:="$SCENE/ref.pcd"
-    rviz:=true delay:=8)
+    sensor_frame:=laser rviz:=true delay:=8)
 else
   PAIR="$NOVELTY_REAL_DATA/osd_tabletop_changes"
   [ -f "$PAIR/learn12.pcd" ] || { log "no $PAIR/learn12.pcd: set NOVELTY_REAL_DATA"; exit 1; }

@@ -79,13 +79,16 @@ inline void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
                        const std::vector<sim::LaserLine>& lines,
                        const Eigen::Isometry3d& T_map_base, const Cloud& cloud, double t0,
                        double dt) {
-  for (std::size_t l = 0; l < lines.size(); ++l) {
-    const ros::Time stamp(t0 + dt * l);
+  const auto write_tf = [&](const ros::Time& stamp, double tilt_rad) {
     tf2_msgs::TFMessage tf;
     tf.transforms.push_back(transformMsg(T_map_base, stamp, "map", "base_link"));
-    tf.transforms.push_back(transformMsg(sim::baseToLaser(lines[l].tilt_rad, laser.mount_height_m),
-                                         stamp, "base_link", "laser"));
+    tf.transforms.push_back(transformMsg(sim::baseToLaser(tilt_rad, laser.mount_height_m), stamp,
+                                         "base_link", "laser"));
     bag.write("/tf", stamp, tf);
+  };
+  for (std::size_t l = 0; l < lines.size(); ++l) {
+    const ros::Time stamp(t0 + dt * l);
+    write_tf(stamp, lines[l].tilt_rad);
     sensor_msgs::LaserScan scan;
     scan.header.stamp = stamp;
     scan.header.frame_id = "laser";
@@ -100,6 +103,9 @@ inline void writeSweep(rosbag::Bag& bag, const sim::LaserConfig& laser,
     bag.write("/scan", stamp, scan);
   }
   const ros::Time end(t0 + dt * lines.size());
+  // The joint's state keeps streaming, as on a robot: one more at the sweep's stamp, so that a
+  // reader looking up the laser's pose at that stamp finds it without waiting.
+  if (!lines.empty()) write_tf(end, lines.back().tilt_rad);
   bag.write("/sweep", end, cloudMsg(cloud, end));
 }
 
