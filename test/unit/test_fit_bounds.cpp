@@ -13,21 +13,12 @@
 #include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/sim/scene.h"
 #include "novelty_detection/visibility/visibility.h"
+#include "superquadric_samples.h"
 
 using namespace novelty_detection;
+using samples::makeSq;
 
 namespace {
-
-Superquadric makeSq(const Eigen::Vector3d& a, double e1, double e2, const Eigen::Vector3d& euler,
-                    const Eigen::Vector3d& position) {
-  Superquadric sq;
-  sq.a = a;
-  sq.e1 = e1;
-  sq.e2 = e2;
-  sq.euler = euler;
-  sq.position = position;
-  return sq;
-}
 
 /// Mean over the sorted axes of |fitted - true| [m].
 double semiAxisError(const Superquadric& fit, const Superquadric& truth) {
