@@ -179,6 +179,8 @@ namespace {
 /// `reach`, in `step`s): the middle of the gap before it, or false.
 bool gapMiddle(const RangeImage& view, const Eigen::Vector3d& start, const Eigen::Vector3d& dir,
                double step, double reach, Eigen::Vector3d* middle) {
+  // A surface already in free space is the outside points' business, not a gap's.
+  if (view.classify(start.cast<float>(), 0.0) == Visibility::kFree) return false;
   for (double h = step; h <= reach; h += step) {
     if (view.classify((start + h * dir).cast<float>(), 0.0) == Visibility::kFree) {
       *middle = start + 0.5 * (h - step) * dir;

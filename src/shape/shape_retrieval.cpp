@@ -36,12 +36,20 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   const Points3d sub = subsample(sm_points, params_.max_fit_points);
   // The final bounded fit also sees the hidden side by symmetry (fit_bounds.h): the points
   // with their reflection, thinned to the fit's point budget; just the points without one.
-  const auto with_hidden_side = [&](double roundness) {
+  // The model is moved first to the completed set's centre on the floor plan (the middle of
+  // the silhouette), so that the refinement does not stay in the hidden space the unbounded
+  // fit reached into.
+  const auto with_hidden_side = [&](double roundness, Superquadric* model) {
     if (!bounds) return sub;
     const Points3d mirrored = mirroredHiddenSide(sub, *bounds, roundness);
     if (mirrored.empty()) return sub;
     Points3d both = sub;
     both.insert(both.end(), mirrored.begin(), mirrored.end());
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& p : both) centre += p;
+    centre /= static_cast<double>(both.size());
+    const Eigen::Vector3d shift = centre - model->position;
+    model->position += shift - shift.dot(bounds->up) * bounds->up;
     return subsample(both, params_.max_fit_points);
   };
 
@@ -90,12 +98,15 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {
-      best = bounded.refine(with_hidden_side(0.0), best.sq, -1, true, FitMeasures::kNone);
+      Superquadric model = best.sq;
+      const Points3d seen = with_hidden_side(0.0, &model);
+      best = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
       // A round section's silhouette ends lie in front of its centre: mirror again knowing
       // how round the first fit came out.
       const double roundness = bounds->has_floor ? horizontalRoundness(best.sq, bounds->up) : 0.0;
-      const Points3d data = with_hidden_side(roundness);
-      if (roundness > 0.0) best = bounded.refine(data, best.sq, -1, true, FitMeasures::kNone);
+      model = best.sq;
+      const Points3d data = roundness > 0.0 ? with_hidden_side(roundness, &model) : seen;
+      if (roundness > 0.0) best = bounded.refine(data, model, -1, true, FitMeasures::kNone);
       // Then once more with the middles of the gaps the sweep left around it, together
       // weighing a quarter of the points.
       const Points3d middles =
