@@ -13,8 +13,9 @@ PACKAGES=(
   rosbash rosout librostest-dev python3-sensor-msgs python3-geometry-msgs
   python3-visualization-msgs python3-std-srvs
 )
-# Only for headless rviz screenshots (scripts/screenshot.sh); install with --with-rviz.
-VIEW_PACKAGES=(rviz xvfb imagemagick x11-utils)
+# Only for pictures: headless rviz screenshots (scripts/screenshot.sh) and the real-data
+# plots (scripts/evaluate_real.sh); install with --with-rviz.
+VIEW_PACKAGES=(rviz xvfb imagemagick x11-utils python3-matplotlib)
 if [ "${1:-}" = "--with-rviz" ]; then PACKAGES+=("${VIEW_PACKAGES[@]}"); fi
 
 missing=()
