@@ -106,6 +106,14 @@ std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std:
     e.fit_m = meanDistance(cloud, truth, obj.id, fitted->second);
     e.floor_m = meanDistance(cloud, truth, obj.id, true_parts);
     if (!std::isfinite(e.fit_m) || !std::isfinite(e.floor_m)) continue;
+    e.parts = static_cast<int>(fitted->second.size());
+    const Superquadric* main = fitted->second.front();
+    for (const Superquadric* sq : fitted->second)
+      if (volume(*sq) > volume(*main)) main = sq;
+    int long_axis = 0;
+    main->a.maxCoeff(&long_axis);
+    const double up_cos = std::abs(main->rotation().col(long_axis).z());
+    e.main_part_tilt_deg = std::acos(std::min(1.0, up_cos)) * 180.0 / M_PI;
     if (shape->parts.size() == 1 && fitted->second.size() == 1) {
       Eigen::Vector3d a = fitted->second.front()->a, b = shape->parts.front().a;
       std::sort(a.data(), a.data() + 3);
@@ -125,6 +133,9 @@ std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeE
     ++k.objects;
     k.fit_m += o.fit_m;
     k.floor_m += o.floor_m;
+    k.parts_mean += o.parts;
+    if (o.parts >= 3 && o.parts <= 7) ++k.parts_3_to_7;
+    if (o.main_part_tilt_deg <= 20.0) ++k.main_part_within_20;
     if (std::isfinite(o.semi_axis_error_m)) {
       ++k.axis_objects;
       k.semi_axis_error_m += o.semi_axis_error_m;
@@ -134,6 +145,7 @@ std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeE
   for (auto& [type, k] : kinds) {
     k.fit_m /= k.objects;
     k.floor_m /= k.objects;
+    k.parts_mean /= k.objects;
     if (k.axis_objects > 0) k.semi_axis_error_m /= k.axis_objects;
     out.push_back(k);
   }

@@ -176,6 +176,12 @@ std::string shapeKindMarkdown(const std::vector<KindShapeError>& kinds) {
       md << "-";
     md << " |\n";
   }
+  for (const auto& k : kinds) {
+    if (k.type != "person") continue;
+    md << "\nPeople: " << std::setprecision(1) << k.parts_mean << " parts per found person ("
+       << k.parts_3_to_7 << " of " << k.objects << " with 3 to 7); the largest part's long axis "
+       << "within 20 deg of up for " << k.main_part_within_20 << " of " << k.objects << ".\n";
+  }
   return md.str();
 }
 
@@ -188,7 +194,10 @@ nlohmann::json shapeKindJson(const std::vector<KindShapeError>& kinds) {
                  {"floor_m", k.floor_m},
                  {"error_over_floor", k.ratio()},
                  {"semi_axis_objects", k.axis_objects},
-                 {"semi_axis_error_m", k.axis_objects > 0 ? k.semi_axis_error_m : 0.0}});
+                 {"semi_axis_error_m", k.axis_objects > 0 ? k.semi_axis_error_m : 0.0},
+                 {"parts_mean", k.parts_mean},
+                 {"parts_3_to_7", k.parts_3_to_7},
+                 {"main_part_within_20deg", k.main_part_within_20}});
   return j;
 }
 

@@ -104,12 +104,26 @@ TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
   // Sorted axes (0.25, 0.5, 0.5) against (0.5, 0.5, 0.5): mean |difference| 0.25 / 3.
   EXPECT_NEAR(errors[0].semi_axis_error_m, 0.25 / 3, 1e-12);
 
-  // Two fitted parts: no semi-axis comparison, the surface errors still count.
+  EXPECT_EQ(errors[0].parts, 1);
+  // The puck's long axes lie in the horizontal plane: 90 degrees from up.
+  EXPECT_NEAR(errors[0].main_part_tilt_deg, 90.0, 1e-6);
+
+  // Two fitted parts: no semi-axis comparison, the surface errors still count. The larger
+  // one, a post tilted by 15 degrees, sets the main part's tilt.
   Superquadric other = puck;
   other.position.z() += 0.3;
+  other.a = Eigen::Vector3d(0.3, 0.3, 1.2);
+  other.euler = Eigen::Vector3d(0.0, 15.0 * M_PI / 180.0, 0.0);
   errors = scoreShapesByObject(cloud, truth, score, {puck, other}, shapes);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_TRUE(std::isnan(errors[0].semi_axis_error_m));
+  EXPECT_EQ(errors[0].parts, 2);
+  EXPECT_NEAR(errors[0].main_part_tilt_deg, 15.0, 1e-6);
+  const auto two = summarizeShapesByKind(errors);
+  ASSERT_EQ(two.size(), 1u);
+  EXPECT_DOUBLE_EQ(two[0].parts_mean, 2.0);
+  EXPECT_EQ(two[0].parts_3_to_7, 0);
+  EXPECT_EQ(two[0].main_part_within_20, 1);
 
   // Points 2 cm outside the true sphere: the floor is 2 cm, an exact fit's ratio is 1.
   Cloud noisy = cloud;

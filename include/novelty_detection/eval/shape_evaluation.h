@@ -39,6 +39,10 @@ struct ObjectShapeError {
   /// both sorted by size (a one-sided view that gets the hidden extent wrong shows here);
   /// NaN otherwise.
   double semi_axis_error_m = std::numeric_limits<double>::quiet_NaN();
+  int parts = 0;  ///< superquadrics fitted to its segment
+  /// Angle between up (+z, the simulator's) and the long axis of its largest fitted part
+  /// (by volume) [deg, 0..90]: a person's torso, an upright object's height.
+  double main_part_tilt_deg = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Per object kind: means over its found objects (semi-axis error over those that have one).
@@ -48,6 +52,9 @@ struct KindShapeError {
   double fit_m = 0.0, floor_m = 0.0;
   int axis_objects = 0;
   double semi_axis_error_m = 0.0;
+  double parts_mean = 0.0;      ///< fitted parts per object
+  int parts_3_to_7 = 0;         ///< objects fitted with 3 to 7 parts (a person's range)
+  int main_part_within_20 = 0;  ///< objects whose largest part's long axis is within 20 deg of up
   double ratio() const { return floor_m > 0.0 ? fit_m / floor_m : 0.0; }
 };
 
