@@ -248,7 +248,7 @@ void BM_SuiteShapes(benchmark::State& state) {
   for (const KindShapeError& k : summarizeShapesByKind(objects)) {
     if (k.type == "person" || k.type == "moved_object") continue;
     state.counters[k.type + "_axis_mm"] = 1000.0 * k.semi_axis_error_m;
-    state.counters[k.type + "_over_floor"] = k.fit_m / k.floor_m;
+    state.counters[k.type + "_over_floor"] = k.ratio();
   }
 }
 BENCHMARK(BM_SuiteShapes)->Args({1, 0})->Args({1, 1})->Iterations(1)->Unit(benchmark::kSecond);

@@ -53,6 +53,20 @@ double meanDistance(const Cloud& cloud, const std::vector<int>& truth, int id,
   return n > 0 ? total / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
 }
 
+/// The superquadrics by the segment they were fitted to; throws std::invalid_argument naming
+/// `who` when `truth` does not label `cloud`.
+std::map<int, std::vector<const Superquadric*>> bySegment(
+    const Cloud& cloud, const std::vector<int>& truth,
+    const std::vector<Superquadric>& superquadrics, const char* who) {
+  if (truth.size() != cloud.size()) {
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(truth.size()) +
+                                " labels for a cloud of " + std::to_string(cloud.size()));
+  }
+  std::map<int, std::vector<const Superquadric*>> by_segment;
+  for (const auto& sq : superquadrics) by_segment[sq.segment].push_back(&sq);
+  return by_segment;
+}
+
 }  // namespace
 
 std::vector<TrueShape> readTrueShapes(const std::string& scene_json) {
@@ -85,12 +99,7 @@ std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std:
                                                   const SceneScore& score,
                                                   const std::vector<Superquadric>& superquadrics,
                                                   const std::vector<TrueShape>& shapes) {
-  if (truth.size() != cloud.size()) {
-    throw std::invalid_argument("scoreShapesByObject: " + std::to_string(truth.size()) +
-                                " labels for a cloud of " + std::to_string(cloud.size()));
-  }
-  std::map<int, std::vector<const Superquadric*>> by_segment;
-  for (const auto& sq : superquadrics) by_segment[sq.segment].push_back(&sq);
+  const auto by_segment = bySegment(cloud, truth, superquadrics, "scoreShapesByObject");
   std::vector<ObjectShapeError> out;
   for (const ObjectScore& obj : score.objects) {
     if (!obj.found) continue;
@@ -177,12 +186,7 @@ std::vector<Superquadric> readSuperquadricsJson(const std::string& path) {
 
 ShapeScore scoreShapes(const Cloud& cloud, const std::vector<int>& truth, const SceneScore& score,
                        const std::vector<Superquadric>& superquadrics) {
-  if (truth.size() != cloud.size()) {
-    throw std::invalid_argument("scoreShapes: " + std::to_string(truth.size()) +
-                                " labels for a cloud of " + std::to_string(cloud.size()));
-  }
-  std::map<int, std::vector<const Superquadric*>> by_segment;
-  for (const auto& sq : superquadrics) by_segment[sq.segment].push_back(&sq);
+  const auto by_segment = bySegment(cloud, truth, superquadrics, "scoreShapes");
 
   ShapeScore out;
   double sum = 0.0;

@@ -34,7 +34,7 @@ bool FitBounds::standsOnFloor(const Points3d& points) const {
     lo = std::min(lo, h);
     hi = std::max(hi, h);
   }
-  return lo <= floor_band_m + support_fraction * (hi - lo);
+  return lo <= floor_band_m + params.support_fraction * (hi - lo);
 }
 
 double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u) {
@@ -46,16 +46,9 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
                        const SuperquadricParams& params) {
   FitBounds bounds;
   if (!params.bounded_fit || segment.empty()) return bounds;
-  bounds.outside_weight = params.outside_weight;
-  bounds.support_weight = params.support_weight;
-  bounds.support_fraction = params.support_fraction;
-  bounds.upright = params.upright;
+  bounds.params = params;
   bounds.margin_m = source.margin_m;
-  bounds.mirror_max_free = params.mirror_max_free;
-  if (source.view && !source.view->empty()) {
-    bounds.view = source.view;
-    bounds.viewpoint = source.view->origin().cast<double>();
-  }
+  if (source.view && !source.view->empty()) bounds.view = source.view;
   if (source.has_floor && source.floor.head<3>().allFinite() &&
       std::abs(source.floor.head<3>().norm() - 1.0) < 1e-6) {
     bounds.has_floor = true;
@@ -113,14 +106,15 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 }
 
 Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness) {
-  if (!bounds.view || bounds.mirror_max_free <= 0.0 || points.size() < 11 ||
+  if (!bounds.view || bounds.params.mirror_max_free <= 0.0 || points.size() < 11 ||
       !bounds.standsOnFloor(points))
     return {};
   // Horizontal view direction v and lateral direction u.
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const auto& p : points) centroid += p;
   centroid /= static_cast<double>(points.size());
-  Eigen::Vector3d v = centroid - bounds.viewpoint;
+  const Eigen::Vector3d viewpoint = bounds.view->origin().cast<double>();
+  Eigen::Vector3d v = centroid - viewpoint;
   v -= v.dot(bounds.up) * bounds.up;
   if (v.norm() < 1e-9) return {};
   v.normalize();
@@ -151,9 +145,8 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
   // share of the width); a box's ends are its corners, level with the centre.
   if (roundness > 0.0) {
     const double r = 0.5 * (u_hi - u_lo);
-    Eigen::Vector3d to_centre = centre + bounds.viewpoint.dot(bounds.up) * bounds.up -
-                                bounds.viewpoint;  // horizontal, as centre has no height
-    to_centre -= to_centre.dot(bounds.up) * bounds.up;
+    Eigen::Vector3d to_centre = centre - viewpoint;
+    to_centre -= to_centre.dot(bounds.up) * bounds.up;  // horizontal
     const double distance = std::max(to_centre.norm(), r);
     centre += std::min(1.0, roundness) *
               (r * std::sqrt(2.0 * kEndBand - kEndBand * kEndBand) + r * r / distance) * v;
@@ -169,7 +162,8 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
     if (bounds.view->classify(m.cast<float>(), bounds.margin_m) == Visibility::kFree) ++free;
     mirrored.push_back(m);
   }
-  if (static_cast<double>(free) > bounds.mirror_max_free * static_cast<double>(mirrored.size()))
+  if (static_cast<double>(free) >
+      bounds.params.mirror_max_free * static_cast<double>(mirrored.size()))
     return {};
   return mirrored;
 }
@@ -195,10 +189,8 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
   Points3d out;
   if (!bounds.view || !bounds.has_floor) return out;
   const Eigen::Matrix3d r = sq.rotation();
-  int k = 0;
-  for (int j = 1; j < 3; ++j)
-    if (std::abs(r.col(j).dot(bounds.up)) > std::abs(r.col(k).dot(bounds.up))) k = j;
-  if (std::abs(r.col(k).dot(bounds.up)) < kUprightCos) return out;
+  const int k = uprightAxis(r, bounds.up);
+  if (k < 0) return out;
   const Eigen::Vector3d up = r.col(k).dot(bounds.up) > 0.0 ? r.col(k) : Eigen::Vector3d(-r.col(k));
   const int i = (k + 1) % 3, j = (k + 2) % 3;
   Eigen::Vector3d middle;
@@ -227,14 +219,23 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
 }
 
 double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up) {
-  const Eigen::Matrix3d r = sq.rotation();
-  int k = 0;
-  for (int j = 1; j < 3; ++j)
-    if (std::abs(r.col(j).dot(up)) > std::abs(r.col(k).dot(up))) k = j;
-  if (std::abs(r.col(k).dot(up)) < kUprightCos) return 0.0;
+  const int k = uprightAxis(sq.rotation(), up);
+  if (k < 0) return 0.0;
   // z up: the section is the x-y one, shaped by e2; x or y up: it holds z, shaped by e1.
   const double e = k == 2 ? sq.e2 : sq.e1;
   return std::min(1.0, std::max(0.0, (e - kCornerExponent) / (1.0 - kCornerExponent)));
+}
+
+int axisNearest(const Eigen::Matrix3d& r, const Eigen::Vector3d& up) {
+  int k = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(r.col(j).dot(up)) > std::abs(r.col(k).dot(up))) k = j;
+  return k;
+}
+
+int uprightAxis(const Eigen::Matrix3d& r, const Eigen::Vector3d& up) {
+  const int k = axisNearest(r, up);
+  return std::abs(r.col(k).dot(up)) < kUprightCos ? -1 : k;
 }
 
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m) {

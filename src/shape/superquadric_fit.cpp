@@ -34,17 +34,18 @@ void addBounds(const FitBounds& bounds, const Points3d& points, bool standing,
                const Eigen::Matrix3d& r0, const Eigen::Vector3d& c0, double* a, double* e,
                double* w, double* t, ceres::Problem* problem) {
   const double n = static_cast<double>(points.size());
-  if (!bounds.outside.empty() && bounds.outside_weight > 0.0) {
+  if (!bounds.outside.empty() && bounds.params.outside_weight > 0.0) {
     Points3d q(bounds.outside.size());
     for (std::size_t i = 0; i < q.size(); ++i) q[i] = r0.transpose() * (bounds.outside[i] - c0);
     const double m = static_cast<double>(q.size());
     problem->AddResidualBlock(
-        new SuperquadricOutsideResidual(q, bounds.outside_weight * std::sqrt(std::max(1.0, n / m))),
+        new SuperquadricOutsideResidual(
+            q, bounds.params.outside_weight * std::sqrt(std::max(1.0, n / m))),
         nullptr, a, e, w, t);
   }
-  if (bounds.support_weight > 0.0 && standing) {
+  if (bounds.params.support_weight > 0.0 && standing) {
     const double mean_a = (a[0] + a[1] + a[2]) / 3.0;
-    const double weight = bounds.support_weight * std::sqrt(n) * 2.0 * std::sqrt(mean_a);
+    const double weight = bounds.params.support_weight * std::sqrt(n) * 2.0 * std::sqrt(mean_a);
     problem->AddResidualBlock(
         SuperquadricSupportResidual::Create(r0.transpose() * bounds.up,
                                             bounds.up.dot(c0) + bounds.floor_offset, weight),
@@ -55,9 +56,7 @@ void addBounds(const FitBounds& bounds, const Points3d& points, bool standing,
 /// `r` turned so that its axis nearest to `up` lies along it (the other two horizontal);
 /// `axis` receives that axis.
 Eigen::Matrix3d uprightRotation(const Eigen::Matrix3d& r, const Eigen::Vector3d& up, int* axis) {
-  int k = 0;
-  for (int j = 1; j < 3; ++j)
-    if (std::abs(r.col(j).dot(up)) > std::abs(r.col(k).dot(up))) k = j;
+  const int k = axisNearest(r, up);
   const int i = (k + 1) % 3, j = (k + 2) % 3;
   Eigen::Matrix3d out;
   out.col(k) = r.col(k).dot(up) < 0.0 ? Eigen::Vector3d(-up) : up;
@@ -177,7 +176,7 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   // A standing object within bounds stays upright: one axis along up, turning about it.
   const bool standing = bounded && bounds_ && bounds_->standsOnFloor(points);
   int up_axis = -1;
-  const Eigen::Matrix3d r0 = standing && bounds_->upright
+  const Eigen::Matrix3d r0 = standing && bounds_->params.upright
                                  ? uprightRotation(initial.rotation(), bounds_->up, &up_axis)
                                  : initial.rotation();
   const Eigen::Vector3d c0 = initial.position;

@@ -13,6 +13,7 @@
 #include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/sim/scene.h"
 #include "novelty_detection/visibility/visibility.h"
+#include "sim_objects.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;
@@ -58,7 +59,7 @@ TEST(FitBounds, AnObjectStandsOnTheFloorWhenItsPointsComeDownToIt) {
   b.up = Eigen::Vector3d::UnitZ();
   b.floor_offset = -0.1;  // floor at z = 0.1
   b.floor_band_m = 0.02;
-  b.support_fraction = 0.5;
+  b.params.support_fraction = 0.5;
   // Points from 0.3 to 1.3 m above the floor: 0.3 <= 0.02 + 0.5 * 1.0.
   EXPECT_TRUE(b.standsOnFloor({{0, 0, 0.4}, {0, 0, 1.4}}));
   // From 0.5 to 0.9: 0.5 > 0.02 + 0.5 * 0.4 (a box on a table).
@@ -91,9 +92,8 @@ TEST(FitBounds, TheHiddenHalfOfACylinderIsItsVisibleHalfReflected) {
   b.has_floor = true;
   b.floor_band_m = 0.02;
   b.view = &view;
-  b.viewpoint = origin;
   b.margin_m = 0.02;
-  b.mirror_max_free = 0.1;
+  b.params.mirror_max_free = 0.1;
   const Points3d back = mirroredHiddenSide(front, b);
   ASSERT_EQ(back.size(), front.size());
   const Eigen::Vector3d ahead =
@@ -130,12 +130,9 @@ BoundedCase fitStanding(sim::NoveltyKind kind, std::uint64_t seed) {
   BoundedCase c;
   if (scene.objects.empty()) return c;
   const auto& object = scene.objects.front();
-  Points3d fine;
-  for (std::size_t i = 0; i < scene.current.size(); ++i)
-    if (scene.current_labels[i] == object.id)
-      fine.emplace_back(scene.current[i].x, scene.current[i].y, scene.current[i].z);
+  const Points3d fine = sim_objects::objectPoints(scene, object.id);
   if (fine.size() < 50) return c;
-  const Points3d coarse = subsample(fine, static_cast<int>(fine.size() / 8) + 11);
+  const Points3d coarse = sim_objects::coarsePoints(fine);
   const double sigma = std::sqrt(cfg.laser.noise_variance_m2);
   RangeImage view;
   view.build(scene.current, {}, scene.current.sensor_origin_.head<3>(),

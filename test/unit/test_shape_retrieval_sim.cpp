@@ -9,8 +9,11 @@
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/sim/scene.h"
+#include "sim_objects.h"
 
 using namespace novelty_detection;
+using sim_objects::coarsePoints;
+using sim_objects::objectPoints;
 
 namespace {
 
@@ -30,15 +33,9 @@ Retrieved retrieve(sim::NoveltyKind kind, std::uint64_t seed) {
   r.sigma = std::sqrt(cfg.laser.noise_variance_m2);
   if (scene.objects.empty()) return r;
   r.object = scene.objects.front();
-  for (std::size_t i = 0; i < scene.current.size(); ++i) {
-    if (scene.current_labels[i] == r.object.id) {
-      const auto& p = scene.current[i];
-      r.fine.emplace_back(p.x, p.y, p.z);
-    }
-  }
+  r.fine = objectPoints(scene, r.object.id);
   const ShapeRetrieval retrieval{SuperquadricParams()};
-  r.sqs = retrieval.recover(r.fine, subsample(r.fine, static_cast<int>(r.fine.size() / 8) + 11),
-                            r.object.id);
+  r.sqs = retrieval.recover(r.fine, coarsePoints(r.fine), r.object.id);
   return r;
 }
 
@@ -101,11 +98,8 @@ TEST(ShapeRetrievalSim, OneSidedSphereStaysRoundAndTheBoxKeepsItsCorners) {
   const sim::ScenePair scene = sim::generateScenePair(cfg);
   ASSERT_EQ(scene.objects.size(), 2u);
   for (const auto& object : scene.objects) {
-    Points3d fine;
-    for (std::size_t i = 0; i < scene.current.size(); ++i)
-      if (scene.current_labels[i] == object.id)
-        fine.emplace_back(scene.current[i].x, scene.current[i].y, scene.current[i].z);
-    const Points3d coarse = subsample(fine, static_cast<int>(fine.size() / 8) + 11);
+    const Points3d fine = objectPoints(scene, object.id);
+    const Points3d coarse = coarsePoints(fine);
     SuperquadricParams free_exponents;
     free_exponents.corner_gain = 0.0;
     const auto loose = ShapeRetrieval(free_exponents).recover(fine, coarse, object.id);

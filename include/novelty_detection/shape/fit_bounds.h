@@ -47,16 +47,12 @@ struct FitBounds {
   double floor_offset = 0.0;
   /// Points this close to the floor count as on it (ground removal's band) [m].
   double floor_band_m = 0.0;
-  double support_fraction = 0.5;
-  double outside_weight = 1.0;
-  double support_weight = 1.0;
-  /// A standing object's fit keeps one axis along up and turns only about it.
-  bool upright = true;
-  /// The sweep's origin and its view (mirroredHiddenSide()); view null: unknown.
-  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+  /// The settings the bounds use: support_fraction, outside_weight, support_weight,
+  /// upright, mirror_max_free.
+  SuperquadricParams params;
+  /// The sweep seen from its own origin (mirroredHiddenSide(), gapMiddles()); null: unknown.
   const RangeImage* view = nullptr;
-  double margin_m = 0.0;
-  double mirror_max_free = 0.0;  ///< 0: no mirroring
+  double margin_m = 0.0;  ///< free means seen through by more than this
 
   bool empty() const { return outside.empty() && !has_floor; }
   /// Height of p above the floor [m].
@@ -133,6 +129,11 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
 /// How round the horizontal section of an upright `sq` is: 0 for a cornered section
 /// (exponent 0.1) to 1 for a round one (exponent 1 or more); 0 when no axis is along `up`.
 double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up);
+
+/// The column of `r` nearest to `up` (largest |r.col(k) . up|).
+int axisNearest(const Eigen::Matrix3d& r, const Eigen::Vector3d& up);
+/// axisNearest() when that axis lies within about 8 degrees of up, else -1.
+int uprightAxis(const Eigen::Matrix3d& r, const Eigen::Vector3d& up);
 
 /// Outside points of `bounds` inside `sq` by more than `tolerance_m` (radially) [count].
 int outsideViolations(const Superquadric& sq, const FitBounds& bounds, double tolerance_m);
