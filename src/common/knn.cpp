@@ -166,6 +166,44 @@ double KnnTree::nearestDistance(const Eigen::Vector3f& p) const {
   return count ? std::sqrt(static_cast<double>(d2)) : std::numeric_limits<double>::infinity();
 }
 
+double KnnTree::kthNearestDistance(const Eigen::Vector3f& p, int k) const {
+  if (k < 1 || static_cast<std::size_t>(k) > x_.size()) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const float q[3] = {p.x(), p.y(), p.z()};
+  std::vector<float> d2(static_cast<std::size_t>(k));
+  int count = 0;
+  search(0, q, -1, k, d2.data(), &count);
+  return count == k ? std::sqrt(static_cast<double>(d2[k - 1]))
+                    : std::numeric_limits<double>::infinity();
+}
+
+void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const {
+  if (nodes_.empty() || !(radius > 0)) return;
+  const float q[3] = {p.x(), p.y(), p.z()};
+  const float r2 = static_cast<float>(radius * radius);
+  std::vector<std::pair<float, int>> found;
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const Node& node = nodes_[stack.back()];
+    stack.pop_back();
+    if (!(boxDistance2(q, node.lo, node.hi) < r2)) continue;
+    if (node.left >= 0) {
+      stack.push_back(node.right);
+      stack.push_back(node.left);
+      continue;
+    }
+    for (int i = node.begin; i < node.end; ++i) {
+      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
+      const float d = dx * dx + dy * dy + dz * dz;
+      if (d < r2) found.emplace_back(d, id_[i]);
+    }
+  }
+  std::sort(found.begin(), found.end());
+  out->reserve(out->size() + found.size());
+  for (const auto& f : found) out->push_back(f.second);
+}
+
 std::vector<double> KnnTree::kthNeighbourDistances(int k) const {
   return forEachNeighbourhood(k, [](const float* d2, int count) {
     return std::sqrt(static_cast<double>(d2[count - 1]));  // d2 is sorted ascending

@@ -1,8 +1,9 @@
-// A small static kd-tree for k-nearest-neighbour statistics among the points of one cloud,
-// private to the core. PCL's KdTreeFLANN answers the same queries; this one is about twice
-// as fast for the small k of outlier removal (measured on 30k-point sweeps) because it
-// queries the points in tree order (cache locality) and searches bottom-up from each
-// query's own leaf, stopping as soon as the k-th neighbour's ball lies inside a subtree.
+// A small static kd-tree for nearest-neighbour queries, private to the core: the k-nearest
+// statistics of outlier removal (queried in tree order, for cache locality, and searched
+// bottom-up from each query's own leaf, stopping as soon as the k-th neighbour's ball lies
+// inside a subtree: about twice PCL's KdTreeFLANN on 30k-point sweeps), and single queries
+// from any point (nearest, k-th nearest, within a radius) for the distances to the map and
+// segmentation, where KdTreeFLANN's per-query set-up costs more than the search itself.
 #pragma once
 
 #include <Eigen/Core>
@@ -14,6 +15,8 @@ namespace detail {
 
 class KnnTree {
  public:
+  /// An empty tree.
+  KnnTree() = default;
   /// Indexes `points` (copied, in any order); results refer to positions in `points`.
   explicit KnnTree(const std::vector<Eigen::Vector3f>& points);
 
@@ -27,6 +30,16 @@ class KnnTree {
 
   /// The distance from `p` (any point) to the nearest indexed point; infinity when empty.
   double nearestDistance(const Eigen::Vector3f& p) const;
+
+  /// The distance from `p` (any point) to its k-th nearest indexed point (an indexed point
+  /// equal to `p` counts); infinity with fewer than k points. Exact.
+  double kthNearestDistance(const Eigen::Vector3f& p, int k) const;
+
+  /// Positions of the indexed points closer than `radius` to `p` (squared distance below
+  /// radius^2 in float), appended to `out` nearest first (ties by position). Exact.
+  void within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const;
+
+  std::size_t size() const { return x_.size(); }
 
  private:
   struct Node {

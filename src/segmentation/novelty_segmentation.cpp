@@ -1,6 +1,6 @@
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
-#include <pcl/kdtree/kdtree_flann.h>
+#include "common/knn.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,8 +19,8 @@ double median(std::vector<double>& v) {
 }  // namespace
 
 struct NearestNeighbourIndex::Impl {
-  Cloud::Ptr points{new Cloud};
-  pcl::KdTreeFLANN<PointT> tree;
+  std::vector<Eigen::Vector3f> points;  ///< the indexed points, in build order
+  detail::KnnTree tree;
 };
 
 NearestNeighbourIndex::NearestNeighbourIndex() : impl_(std::make_unique<Impl>()) {}
@@ -31,52 +31,37 @@ NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&)
 void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
   impl_ = std::make_unique<Impl>();
   auto add = [&](const PointT& p) {
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) impl_->points->push_back(p);
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      impl_->points.emplace_back(p.x, p.y, p.z);
   };
   if (indices.empty()) {
+    impl_->points.reserve(cloud.size());
     for (const auto& p : cloud) add(p);
   } else {
+    impl_->points.reserve(indices.size());
     for (int i : indices) add(cloud[i]);
   }
-  if (!impl_->points->empty()) impl_->tree.setInputCloud(impl_->points);
+  impl_->tree = detail::KnnTree(impl_->points);
 }
 
-bool NearestNeighbourIndex::empty() const { return impl_->points->empty(); }
+bool NearestNeighbourIndex::empty() const { return impl_->points.empty(); }
 
 double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
-  if (empty()) return std::numeric_limits<double>::infinity();
-  PointT q(p.x(), p.y(), p.z());
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
-  if (impl_->tree.nearestKSearch(q, 1, idx, d2) < 1) return std::numeric_limits<double>::infinity();
-  return std::sqrt(static_cast<double>(d2[0]));
+  return impl_->tree.nearestDistance(p);
 }
 
 void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
                                       std::vector<int>* out) const {
-  if (empty() || !(radius_m > 0)) return;
-  PointT q(p.x(), p.y(), p.z());
-  std::vector<int> idx;
-  std::vector<float> d2;
-  if (impl_->tree.radiusSearch(q, radius_m, idx, d2) > 0)
-    out->insert(out->end(), idx.begin(), idx.end());
+  impl_->tree.within(p, radius_m, out);
 }
 
-std::size_t NearestNeighbourIndex::size() const { return impl_->points->size(); }
+std::size_t NearestNeighbourIndex::size() const { return impl_->points.size(); }
 
 double NearestNeighbourIndex::kthDistance(const Eigen::Vector3f& p, int k) const {
-  if (k < 1 || size() < static_cast<std::size_t>(k)) return std::numeric_limits<double>::infinity();
-  PointT q(p.x(), p.y(), p.z());
-  std::vector<int> idx(k);
-  std::vector<float> d2(k);
-  if (impl_->tree.nearestKSearch(q, k, idx, d2) < k) return std::numeric_limits<double>::infinity();
-  return std::sqrt(static_cast<double>(d2[k - 1]));
+  return impl_->tree.kthNearestDistance(p, k);
 }
 
-Eigen::Vector3f NearestNeighbourIndex::point(int id) const {
-  const PointT& q = (*impl_->points)[id];
-  return Eigen::Vector3f(q.x, q.y, q.z);
-}
+Eigen::Vector3f NearestNeighbourIndex::point(int id) const { return impl_->points[id]; }
 
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
   distances.erase(std::remove_if(distances.begin(), distances.end(),
@@ -113,27 +98,28 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
   std::vector<Indices> out;
   if (link_radius_m) *link_radius_m = 0.0;
   if (indices.empty()) return out;
-  Cloud::Ptr pts(new Cloud);
-  pts->reserve(indices.size());
-  for (int i : indices) pts->push_back(cloud[i]);
-  pcl::KdTreeFLANN<PointT> tree;
-  tree.setInputCloud(pts);
-  const int n = static_cast<int>(pts->size());
+  Indices finite;  // the index skips non-finite points: they join no component
+  finite.reserve(indices.size());
+  for (int i : indices) {
+    if (cloud[i].getVector3fMap().allFinite()) finite.push_back(i);
+  }
+  NearestNeighbourIndex tree;
+  tree.build(cloud, finite);
+  const int n = static_cast<int>(finite.size());
   // Spacing: median distance to the 4th nearest neighbour among the kept points (a sample).
   const int k = std::min(5, n);
-  std::vector<int> nn;
-  std::vector<float> d2;
   std::vector<double> spacing;
   const int stride = std::max(1, n / 2000);
   for (int i = 0; i < n && k > 1; i += stride) {
-    if (tree.nearestKSearch((*pts)[i], k, nn, d2) == k) spacing.push_back(std::sqrt(d2[k - 1]));
+    const double d = tree.kthDistance(tree.point(i), k);
+    if (std::isfinite(d)) spacing.push_back(d);
   }
   const double radius =
       link_factor * std::min(spacing.empty() ? 0.0 : median(spacing), max_spacing_m);
   if (link_radius_m) *link_radius_m = radius;
   std::vector<int> comp(n, -1);
   int count = 0;
-  std::vector<int> stack;
+  std::vector<int> stack, nn;
   for (int seed = 0; seed < n; ++seed) {
     if (comp[seed] >= 0) continue;
     Indices members;
@@ -142,13 +128,13 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
     while (!stack.empty()) {
       const int a = stack.back();
       stack.pop_back();
-      members.push_back(indices[a]);
-      if (radius > 0 && tree.radiusSearch((*pts)[a], radius, nn, d2) > 0) {
-        for (int b : nn) {
-          if (comp[b] < 0) {
-            comp[b] = count;
-            stack.push_back(b);
-          }
+      members.push_back(finite[a]);
+      nn.clear();
+      if (radius > 0) tree.withinIds(tree.point(a), radius, &nn);
+      for (int b : nn) {
+        if (comp[b] < 0) {
+          comp[b] = count;
+          stack.push_back(b);
         }
       }
     }

@@ -97,7 +97,60 @@ TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
   EXPECT_EQ(nd::detail::KnnTree(two).meanNeighbourDistances(8), (std::vector<double>{5, 5}));
   EXPECT_EQ(nd::detail::KnnTree({Eigen::Vector3f(1, 1, 1)}).meanNeighbourDistances(8),
             (std::vector<double>{0}));
-  EXPECT_TRUE(nd::detail::KnnTree({}).meanNeighbourDistances(8).empty());
+  EXPECT_TRUE(
+      nd::detail::KnnTree(std::vector<Eigen::Vector3f>{}).meanNeighbourDistances(8).empty());
+}
+
+// The queries from any point (the distances to the map, the k-th neighbour spacing and the
+// radius searches of segmentation) against brute force, duplicates and boundaries included.
+TEST(KnnTree, PointQueriesMatchBruteForce) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 2000; ++k) pts.emplace_back(u(rng), u(rng), 0.2f * u(rng));
+  for (int k = 0; k < 40; ++k) pts.push_back(pts[k]);
+  const nd::detail::KnnTree tree(pts);
+  ASSERT_EQ(tree.size(), pts.size());
+  for (int q = 0; q < 300; ++q) {
+    // Half the queries are indexed points (they count as their own nearest), half are not.
+    const Eigen::Vector3f p = q % 2 ? pts[static_cast<std::size_t>(q) * 6]
+                                    : Eigen::Vector3f(1.4f * u(rng) - 0.2f, u(rng), u(rng));
+    std::vector<float> d2;
+    for (const auto& x : pts) {
+      const Eigen::Vector3f d = x - p;
+      d2.push_back(d.x() * d.x() + d.y() * d.y() + d.z() * d.z());
+    }
+    std::vector<float> sorted = d2;
+    std::sort(sorted.begin(), sorted.end());
+    ASSERT_EQ(tree.nearestDistance(p), std::sqrt(static_cast<double>(sorted[0])));
+    for (const int k : {1, 5, 17}) {
+      ASSERT_EQ(tree.kthNearestDistance(p, k), std::sqrt(static_cast<double>(sorted[k - 1])))
+          << "query " << q << " k " << k;
+    }
+    const double radius = 0.03 + 0.1 * (q % 3);
+    const float r2 = static_cast<float>(radius * radius);
+    std::vector<std::pair<float, int>> expected;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      if (d2[i] < r2) expected.emplace_back(d2[i], static_cast<int>(i));
+    }
+    std::sort(expected.begin(), expected.end());
+    std::vector<int> got{-7};  // appended to what `out` holds
+    tree.within(p, radius, &got);
+    ASSERT_EQ(got.size(), expected.size() + 1) << "query " << q;
+    EXPECT_EQ(got[0], -7);
+    for (std::size_t i = 0; i < expected.size(); ++i) ASSERT_EQ(got[i + 1], expected[i].second);
+  }
+  EXPECT_EQ(tree.kthNearestDistance(pts[0], static_cast<int>(pts.size()) + 1),
+            std::numeric_limits<double>::infinity());
+  std::vector<int> none;
+  tree.within(pts[0], 0.0, &none);
+  tree.within(Eigen::Vector3f(50.f, 50.f, 50.f), 1.0, &none);
+  EXPECT_TRUE(none.empty());
+  const nd::detail::KnnTree empty;
+  EXPECT_EQ(empty.nearestDistance(pts[0]), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(empty.kthNearestDistance(pts[0], 1), std::numeric_limits<double>::infinity());
+  empty.within(pts[0], 1.0, &none);
+  EXPECT_TRUE(none.empty());
 }
 
 // Sparse outliers (1 % of the points, uniform in the room, at least 0.2 m from every
