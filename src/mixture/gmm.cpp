@@ -29,23 +29,35 @@ Eigen::VectorXd weightVector(const WeightedPoints& data) {
   return data.weights.size() ? data.weights : Eigen::VectorXd::Ones(data.points.cols());
 }
 
+/// Below this log-ratio to a column's largest entry a term is taken as 0: exp(-50) = 2e-22,
+/// under the rounding of a sum that holds 1, even with a thousand such terms.
+constexpr double kNegligibleLogRatio = -50.0;
+
 /// In place: each column of log-values a (K x N) becomes its softmax; lse[n] receives the
-/// column's log-sum-exp. One exp per entry (the hot loop of EM). A column of -inf (every
-/// weight zero) becomes uniform with lse -inf.
+/// column's log-sum-exp. A point is near a few of the K Gaussians: only the entries within
+/// kNegligibleLogRatio of the column's largest cost an exp (the hot loop of EM), the rest
+/// are exactly 0. A column of -inf (every weight zero) becomes uniform with lse -inf.
 void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse) {
   lse.resize(a.cols());
-  const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, a.rows()));
+  const Eigen::Index rows = a.rows();
+  const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, rows));
   for (Eigen::Index n = 0; n < a.cols(); ++n) {
-    auto col = a.col(n);
-    const double m = col.maxCoeff();
+    double* col = a.col(n).data();
+    double m = -std::numeric_limits<double>::infinity();
+    for (Eigen::Index k = 0; k < rows; ++k) m = std::max(m, col[k]);
     if (!std::isfinite(m)) {
       lse[n] = m;
-      col.setConstant(uniform);
+      std::fill(col, col + rows, uniform);
       continue;
     }
-    col = (col.array() - m).exp().matrix();
-    const double sum = col.sum();
-    col /= sum;
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < rows; ++k) {
+      const double v = col[k] - m;
+      col[k] = v < kNegligibleLogRatio ? 0.0 : std::exp(v);
+      sum += col[k];
+    }
+    const double inv = 1.0 / sum;
+    for (Eigen::Index k = 0; k < rows; ++k) col[k] *= inv;
     lse[n] = m + std::log(sum);
   }
 }

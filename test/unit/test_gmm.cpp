@@ -4,7 +4,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <numeric>
 #include <random>
+#include <vector>
 
 #include "novelty_detection/mixture/gmm.h"
 
@@ -160,4 +162,38 @@ TEST(Gmm, ResponsibilitiesSumToOneFarFromEveryComponent) {
   EXPECT_NEAR(r.col(0).sum(), 1.0, 1e-12);
   EXPECT_NEAR(r.col(1).sum(), 1.0, 1e-12);
   EXPECT_GT(r(0, 1), 0.99);
+}
+
+// Responsibilities and log-likelihoods against the densities summed directly: a Gaussian
+// far from a point (log-ratio below -50 to the nearest) gets exactly 0, the others their
+// share, and the log-likelihood is the log of the mixture's density.
+TEST(Gmm, ResponsibilitiesMatchDirectDensities) {
+  Gmm g = truthMixture();
+  Gaussian far;
+  far.weight = 0.2;
+  far.mean = Eigen::Vector3d(40, 0, 0);
+  far.cov = 0.01 * Eigen::Matrix3d::Identity();
+  g.components.push_back(far);
+  for (auto& c : g.components) c.weight /= 1.2;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  Eigen::Matrix3Xd x(3, 200);  // near the three near Gaussians, where their densities overlap
+  for (int i = 0; i < x.cols(); ++i)
+    x.col(i) = g.components[i % 3].mean + Eigen::Vector3d(u(rng), u(rng), u(rng));
+  Eigen::VectorXd ll;
+  const Eigen::MatrixXd r = responsibilities(g, x, &ll);
+  for (int i = 0; i < x.cols(); ++i) {
+    std::vector<double> p;
+    for (const auto& c : g.components) {
+      const Eigen::Vector3d d = x.col(i) - c.mean;
+      p.push_back(c.weight * std::exp(-0.5 * d.dot(c.cov.inverse() * d)) /
+                  std::sqrt(std::pow(2 * M_PI, 3) * c.cov.determinant()));
+    }
+    const double total = std::accumulate(p.begin(), p.end(), 0.0);
+    ASSERT_GT(total, 0.0);
+    EXPECT_NEAR(ll[i], std::log(total), 1e-9) << "point " << i;
+    for (std::size_t k = 0; k + 1 < p.size(); ++k) EXPECT_NEAR(r(k, i), p[k] / total, 1e-12);
+    EXPECT_EQ(r(g.size() - 1, i), 0.0) << "point " << i;
+    EXPECT_DOUBLE_EQ(r.col(i).sum(), 1.0);
+  }
 }
