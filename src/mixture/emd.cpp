@@ -4,6 +4,7 @@
 #include <lemon/smart_graph.h>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -140,6 +141,12 @@ struct EmdSolver::Network {
             r.flows(i, j) = f;
           }
         }
+      }
+      if (!transpose) {
+        // LEMON's potentials: reduced costs d_ij + pi_i - pi_j >= 0, pi <= 0 (GEQ form).
+        r.capacity_prices.resize(m);
+        for (Eigen::Index j = 0; j < m; ++j)
+          r.capacity_prices[j] = std::max(0.0, -simplex->potential(sinks[j]));
       }
     }
     return r;

@@ -44,6 +44,16 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     const double mass = p.sum();
     const double near_cost = p.dot(nearest);
     const Eigen::VectorXd row_cost = (full.flows.cwiseProduct(d)).rowwise().sum();
+    // The full solve's dual (EmdResult::capacity_prices) bounds every removal from below:
+    // alpha_i = min_j (d_ij + beta_j) stays feasible when a source is emptied, so removing
+    // i costs at least dual - p_i alpha_i. Tight where i's flow went to unfilled capacity.
+    Eigen::VectorXd alpha;
+    double dual = 0.0;
+    const bool priced = full.capacity_prices.size() == q.size();
+    if (priced) {
+      alpha = (d.rowwise() + full.capacity_prices.transpose()).rowwise().minCoeff();
+      dual = p.dot(alpha) - q.dot(full.capacity_prices);
+    }
     struct Candidate {
       Eigen::Index i;
       double ub, lb;
@@ -57,6 +67,11 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
         c.ub = std::max(0.0, full.cost - row_cost[i]) / rest;
         // The lower bound holds while the remaining Theta is the lighter side.
         c.lb = rest <= q_mass ? std::max(0.0, near_cost - p[i] * nearest[i]) / rest : 0.0;
+        if (priced && rest <= q_mass) {
+          // Round-off margin: the bound only skips solves, it must never exceed the value.
+          const double dual_lb = (dual - p[i] * alpha[i]) / rest;
+          c.lb = std::max(c.lb, dual_lb - 1e-9 * std::abs(dual_lb));
+        }
       }
       cands.push_back(c);
     }

@@ -165,6 +165,58 @@ TEST(Emd, MatchesIndependentSolverOnRandomCases) {
   }
 }
 
+// The capacity prices are an optimal dual: their bound equals the cost solved (strong
+// duality), and for the same flows with any source emptied it stays below that removal's
+// true cost (weak duality), which the greedy selection uses to skip solves.
+TEST(Emd, CapacityPricesBoundEveryRemoval) {
+  std::mt19937 rng(23);
+  std::uniform_int_distribution<int> size(2, 12);
+  std::uniform_real_distribution<double> w(0.0, 1.0);
+  int tight = 0, removals = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = size(rng), m = size(rng);
+    Eigen::MatrixXd d(n, m);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < m; ++j) d(i, j) = 5 * w(rng);
+    Eigen::VectorXd p(n), q(m);
+    for (int i = 0; i < n; ++i) p[i] = w(rng);
+    for (int j = 0; j < m; ++j) q[j] = w(rng);
+    q *= (trial % 2 ? 1.0 : 1.5) * p.sum() / q.sum();  // equal masses, or spare capacity
+    const EmdSolver solver(d);
+    const EmdResult full = solver.solve(p, q, true);
+    if (p.sum() > q.sum()) {  // equal masses up to round-off, solved transposed: no prices
+      EXPECT_EQ(full.capacity_prices.size(), 0);
+      continue;
+    }
+    ASSERT_EQ(full.capacity_prices.size(), m) << "trial " << trial;
+    EXPECT_TRUE((full.capacity_prices.array() >= 0.0).all());
+    const Eigen::VectorXd alpha =
+        (d.rowwise() + full.capacity_prices.transpose()).rowwise().minCoeff();
+    const double dual = p.dot(alpha) - q.dot(full.capacity_prices);
+    EXPECT_NEAR(dual, full.cost, 1e-9 * std::max(1.0, full.cost)) << "trial " << trial;
+    for (int i = 0; i < n; ++i) {
+      Eigen::VectorXd t = p;
+      t[i] = 0.0;
+      if (!(t.sum() > 0)) continue;
+      const double exact = solver.solve(t, q).cost;
+      const double bound = dual - p[i] * alpha[i];
+      EXPECT_LE(bound, exact + 1e-9) << "trial " << trial << " removing " << i;
+      ++removals;
+      tight += bound > exact - 1e-9;
+    }
+  }
+  // Tight for a good share of removals: the bound is what lets the selection skip solves.
+  EXPECT_GT(removals, 600);
+  EXPECT_GT(tight, removals / 4);
+  // The heavier first mixture is solved transposed: no prices.
+  Eigen::MatrixXd d(1, 1);
+  d << 1.0;
+  EXPECT_EQ(EmdSolver(d)
+                .solve(Eigen::VectorXd::Constant(1, 2.0), Eigen::VectorXd::Ones(1), true)
+                .capacity_prices.size(),
+            0);
+}
+
 TEST(Emd, RejectsBadInput) {
   Eigen::MatrixXd d = Eigen::MatrixXd::Ones(2, 2);
   EmdSolver solver(d);

@@ -36,6 +36,12 @@ struct EmdResult {
   double cost = 0.0;      ///< sum f_ij d_ij
   double flow = 0.0;      ///< sum f_ij = min(sum p, sum q)
   Eigen::MatrixXd flows;  ///< f_ij, filled when requested
+  /// With the flows, when the first mixture is the lighter side (it ships all its mass and
+  /// the second's weights are capacities): the optimal dual's price beta_j >= 0 of each of
+  /// the second's capacities (empty otherwise). For any weights p' of the first, with
+  /// alpha_i = min_j (d_ij + beta_j), sum_i p'_i alpha_i - sum_j q_j beta_j is a lower bound
+  /// on the cost of moving p' (weak duality); it equals the cost for the p solved.
+  Eigen::VectorXd capacity_prices;
 };
 
 /// Repeated EMD solves over one ground-distance matrix (n x m). The flow network is built
