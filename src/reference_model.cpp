@@ -49,7 +49,7 @@ Cloud rotateCloud(const Cloud& cloud, const Eigen::Matrix3d& R) {
 
 Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer) {
   Simplified s;
-  s.pre = Preprocessor(params.preprocess).compute(cloud);
+  s.pre = Preprocessor(params.preprocess).setThreads(params.compute.resolved()).compute(cloud);
   if (result) {
     result->point_counts.emplace_back("finite", s.pre.finite.size());
     result->point_counts.emplace_back(

@@ -608,15 +608,16 @@ struct AlignmentParams {
 };
 
 /// How the work is spread over the CPU's cores. Results do not depend on it: parallel
-/// loops only compute independent items (superquadric fits) into fixed slots.
+/// loops only compute independent items (neighbourhoods, superquadric fits) into fixed slots.
 struct ComputeParams {
   int threads = 0;
 
   template <class F>
   void visit(F&& f) {
     f("threads", threads,
-      {"threads for the superquadric fits (0: the hardware concurrency, at most 8; 1: "
-       "single-threaded); results are identical for any value",
+      {"threads for the parallel stages: the neighbour statistics of outlier removal and the "
+       "superquadric fits (0: the hardware concurrency, at most 8; 1: single-threaded); "
+       "results are identical for any value",
        0, 256});
   }
   void validate() const;

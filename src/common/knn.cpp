@@ -1,5 +1,7 @@
 #include "common/knn.h"
 
+#include "common/parallel.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -116,41 +118,48 @@ void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, in
 }
 
 template <class Reduce>
-std::vector<double> KnnTree::forEachNeighbourhood(int k, Reduce reduce) const {
+std::vector<double> KnnTree::forEachNeighbourhood(int k, int threads, Reduce reduce) const {
   const int n = static_cast<int>(x_.size());
   std::vector<double> out(n, 0.0);
   k = std::min(k, n - 1);
   if (k <= 0) return out;
-  std::vector<float> d2(k);
-  for (int t = 0; t < n; ++t) {  // tree order: neighbouring queries touch the same memory
-    // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
-    // stopping once the ball through the k-th neighbour lies inside the current subtree.
-    const float q[3] = {x_[t], y_[t], z_[t]};
-    int count = 0;
-    int node = leaf_of_[t];
-    search(node, q, t, k, d2.data(), &count);
-    while (nodes_[node].parent >= 0) {
-      const Node& parent = nodes_[nodes_[node].parent];
-      const Node& sibling = nodes_[parent.left == node ? parent.right : parent.left];
-      if (count < k || boxDistance2(q, sibling.lo, sibling.hi) < d2[k - 1]) {
-        search(parent.left == node ? parent.right : parent.left, q, t, k, d2.data(), &count);
-      }
-      node = nodes_[node].parent;
-      if (count == k) {
-        float inside = q[0] - parent.lo[0];
-        for (int a = 0; a < 3; ++a) {
-          inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
+  // Blocks of consecutive tree positions: neighbouring queries touch the same memory, and
+  // each block writes only its own points' slots.
+  constexpr int kBlock = 4096;
+  const int blocks = (n + kBlock - 1) / kBlock;
+  parallelFor(blocks, threads, [&](int b) {
+    std::vector<float> d2(k);
+    const int end = std::min(n, (b + 1) * kBlock);
+    for (int t = b * kBlock; t < end; ++t) {
+      // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
+      // stopping once the ball through the k-th neighbour lies inside the current subtree.
+      const float q[3] = {x_[t], y_[t], z_[t]};
+      int count = 0;
+      int node = leaf_of_[t];
+      search(node, q, t, k, d2.data(), &count);
+      while (nodes_[node].parent >= 0) {
+        const Node& parent = nodes_[nodes_[node].parent];
+        const Node& sibling = nodes_[parent.left == node ? parent.right : parent.left];
+        if (count < k || boxDistance2(q, sibling.lo, sibling.hi) < d2[k - 1]) {
+          search(parent.left == node ? parent.right : parent.left, q, t, k, d2.data(), &count);
         }
-        if (inside > 0.f && inside * inside >= d2[k - 1]) break;
+        node = nodes_[node].parent;
+        if (count == k) {
+          float inside = q[0] - parent.lo[0];
+          for (int a = 0; a < 3; ++a) {
+            inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
+          }
+          if (inside > 0.f && inside * inside >= d2[k - 1]) break;
+        }
       }
+      out[id_[t]] = reduce(d2.data(), count);
     }
-    out[id_[t]] = reduce(d2.data(), count);
-  }
+  });
   return out;
 }
 
-std::vector<double> KnnTree::meanNeighbourDistances(int k) const {
-  return forEachNeighbourhood(k, [](const float* d2, int count) {
+std::vector<double> KnnTree::meanNeighbourDistances(int k, int threads) const {
+  return forEachNeighbourhood(k, threads, [](const float* d2, int count) {
     double sum = 0.0;
     for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
     return sum / count;
@@ -204,8 +213,8 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
   for (const auto& f : found) out->push_back(f.second);
 }
 
-std::vector<double> KnnTree::kthNeighbourDistances(int k) const {
-  return forEachNeighbourhood(k, [](const float* d2, int count) {
+std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {
+  return forEachNeighbourhood(k, threads, [](const float* d2, int count) {
     return std::sqrt(static_cast<double>(d2[count - 1]));  // d2 is sorted ascending
   });
 }

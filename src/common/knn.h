@@ -22,11 +22,12 @@ class KnnTree {
 
   /// For every point, the mean Euclidean distance to its k nearest OTHER points (k is
   /// clamped to size - 1; 0 when the tree has a single point). Exact.
-  std::vector<double> meanNeighbourDistances(int k) const;
+  /// The points are searched on up to `threads` threads; the result does not depend on it.
+  std::vector<double> meanNeighbourDistances(int k, int threads = 1) const;
 
   /// For every point, the distance to its k-th nearest OTHER point (k clamped as above; 0
   /// when the tree has a single point). Exact.
-  std::vector<double> kthNeighbourDistances(int k) const;
+  std::vector<double> kthNeighbourDistances(int k, int threads = 1) const;
 
   /// The distance from `p` (any point) to the nearest indexed point; infinity when empty.
   double nearestDistance(const Eigen::Vector3f& p) const;
@@ -52,7 +53,7 @@ class KnnTree {
   /// Runs the k-nearest search for every point and stores reduce(sorted squared distances,
   /// count) at the point's input position.
   template <class Reduce>
-  std::vector<double> forEachNeighbourhood(int k, Reduce reduce) const;
+  std::vector<double> forEachNeighbourhood(int k, int threads, Reduce reduce) const;
   void search(int node, const float* q, int self, int k, float* d2, int* count) const;
 
   std::vector<float> x_, y_, z_;  ///< coordinates in tree order

@@ -63,7 +63,7 @@ namespace {
 /// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
 /// spacing).
 Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
-                            const Eigen::Vector3f* origin, Indices* removed) {
+                            const Eigen::Vector3f* origin, Indices* removed, int threads) {
   if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
   if (!(std_mul >= 0.0)) {
     throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
@@ -95,7 +95,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
 
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
   // the distribution of those means.
-  std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k);
+  std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k, threads);
   auto limitOf = [n, std_mul](const std::vector<double>& v) {
     double mu = 0.0;
     for (double x : v) mu += x;
@@ -135,14 +135,14 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
 }  // namespace
 
 Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
-                             Indices* removed) {
-  return statisticalOutliers(cloud, indices, k, std_mul, nullptr, removed);
+                             Indices* removed, int threads) {
+  return statisticalOutliers(cloud, indices, k, std_mul, nullptr, removed, threads);
 }
 
 Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
                                         double std_mul, const Eigen::Vector3f& sensor_origin,
-                                        Indices* removed) {
-  return statisticalOutliers(cloud, indices, k, std_mul, &sensor_origin, removed);
+                                        Indices* removed, int threads) {
+  return statisticalOutliers(cloud, indices, k, std_mul, &sensor_origin, removed, threads);
 }
 
 Preprocessor::Preprocessor(const PreprocessParams& params) : params_(params) { params_.validate(); }
@@ -174,9 +174,9 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f
     current = params_.outlier_range_scaled && origin_known
                   ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
                                                     params_.outlier_std_mul, sensor_origin,
-                                                    &result.outliers)
+                                                    &result.outliers, threads_)
                   : removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
-                                         &result.outliers);
+                                         &result.outliers, threads_);
   }
   if (params_.ground_removal) {
     result.ground =

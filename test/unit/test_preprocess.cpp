@@ -77,12 +77,16 @@ TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(0.f, 1.f);
   std::vector<Eigen::Vector3f> pts;
-  for (int k = 0; k < 1500; ++k) pts.emplace_back(u(rng), u(rng), 0.1f * u(rng));
+  for (int k = 0; k < 9000; ++k) pts.emplace_back(u(rng), u(rng), 0.1f * u(rng));
   for (int k = 0; k < 50; ++k) pts.push_back(pts[k]);  // duplicates: distance 0 neighbours
   for (const int k : {1, 8, 40}) {
     const std::vector<double> fast = nd::detail::KnnTree(pts).meanNeighbourDistances(k);
     ASSERT_EQ(fast.size(), pts.size());
-    for (std::size_t i = 0; i < pts.size(); i += 7) {
+    // The same to the bit on several threads (blocks of tree positions).
+    EXPECT_EQ(nd::detail::KnnTree(pts).meanNeighbourDistances(k, 3), fast);
+    EXPECT_EQ(nd::detail::KnnTree(pts).kthNeighbourDistances(k, 2),
+              nd::detail::KnnTree(pts).kthNeighbourDistances(k, 1));
+    for (std::size_t i = 0; i < pts.size(); i += 41) {
       std::vector<double> d;
       for (std::size_t j = 0; j < pts.size(); ++j) {
         if (j != i) d.push_back((pts[i] - pts[j]).norm());

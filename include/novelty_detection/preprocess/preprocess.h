@@ -38,9 +38,10 @@ Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* du
 
 /// Statistical outlier removal over `indices`: a point is an outlier when the mean distance
 /// to its k nearest neighbours exceeds mu + std_mul * sigma of those means. Returns the
-/// kept indices (order preserved); the removed ones go to `removed` when given.
+/// kept indices (order preserved); the removed ones go to `removed` when given. The
+/// neighbour search runs on up to `threads` threads; the result does not depend on it.
 Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
-                             Indices* removed = nullptr);
+                             Indices* removed = nullptr, int threads = 1);
 
 /// As above, but a point is removed only when it is an outlier both by that statistic and by
 /// the same statistic over the mean distances divided by each point's range from
@@ -50,7 +51,7 @@ Indices removeSparseOutliers(const Cloud& cloud, const Indices& indices, int k, 
 /// points that are sparse only next to far ones.
 Indices removeSparseOutliersRangeScaled(const Cloud& cloud, const Indices& indices, int k,
                                         double std_mul, const Eigen::Vector3f& sensor_origin,
-                                        Indices* removed = nullptr);
+                                        Indices* removed = nullptr, int threads = 1);
 
 /// RANSAC plane within `max_angle_deg` of horizontal (normal near +z of the cloud's frame)
 /// over `indices`; inliers within `distance_m`. The other settings take PreprocessParams'
@@ -96,9 +97,16 @@ class Preprocessor {
   /// With the origin and whether it is known stated explicitly.
   PreprocessResult compute(const Cloud& cloud, const Eigen::Vector3f& sensor_origin,
                            bool origin_known) const;
+  /// Threads for the neighbour statistics (compute/threads resolved; default 1). Results
+  /// do not depend on it.
+  Preprocessor& setThreads(int threads) {
+    threads_ = threads;
+    return *this;
+  }
 
  private:
   PreprocessParams params_;
+  int threads_ = 1;
 };
 
 }  // namespace novelty_detection
