@@ -492,6 +492,20 @@ void Pipeline::setReference(const Cloud& reference, const ReferenceViews& views)
   reference_ = buildReferenceModel(params_, reference, views);
 }
 
+void Pipeline::setReference(const Cloud& reference, const ReferenceViews& views,
+                            const ReferenceModelSummary& summary) {
+  reference_ = buildReferenceModel(params_, reference, views, &summary);
+}
+
+ReferenceModelSummary Pipeline::referenceSummary() const {
+  ReferenceModelSummary s;
+  if (!reference_) return s;
+  s.kept = reference_->kept;
+  s.gmm = reference_->gmm;
+  s.explained_log_density = reference_->explained_log_density;
+  return s;
+}
+
 std::size_t Pipeline::referenceViewpoints() const {
   return reference_ ? reference_->visibility.views() : 0;
 }

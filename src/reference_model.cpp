@@ -4,7 +4,10 @@
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/shape/superquadric.h"
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -28,6 +31,26 @@ WeightedPoints cutAsWeightedPoints(const MultiScaleTree& tree, const MultiScaleT
     w.covariances.col(i) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(c.data());
   }
   return w;
+}
+
+/// Throws std::invalid_argument unless `summary` can be the model of `cloud`.
+void checkSummary(const ReferenceModelSummary& summary, const Cloud& cloud) {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("reference model summary does not fit the cloud: " + what);
+  };
+  int previous = -1;
+  for (int i : summary.kept) {
+    if (i <= previous || i >= static_cast<int>(cloud.size())) fail("point index out of order");
+    if (!point3f(cloud[i]).allFinite()) fail("index of a non-finite point");
+    previous = i;
+  }
+  for (const Gaussian& g : summary.gmm.components) {
+    if (!(g.weight > 0) || !std::isfinite(g.weight) || !g.mean.allFinite() || !g.cov.allFinite())
+      fail("a Gaussian with a non-positive weight or a non-finite value");
+    if (Eigen::LLT<Eigen::Matrix3d>(g.cov).info() != Eigen::Success)
+      fail("a Gaussian whose covariance is not positive definite");
+  }
+  if (std::isnan(summary.explained_log_density)) fail("the explained log-density is NaN");
 }
 
 Superquadric rotated(Superquadric sq, const Eigen::Matrix3d& R) {
@@ -80,7 +103,8 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 }
 
 std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params, const Cloud& given,
-                                                          const ReferenceViews& views) {
+                                                          const ReferenceViews& views,
+                                                          const ReferenceModelSummary* summary) {
   checkReferenceViews(given, views);
   auto model = std::make_shared<ReferenceModel>();
   model->views = views;
@@ -99,18 +123,27 @@ std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params, 
   } else {
     model->cloud = reference;
   }
-  return buildReferenceModelInUpFrame(params, std::move(model));
+  return buildReferenceModelInUpFrame(params, std::move(model), summary);
 }
 
 std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
-    const Params& params, std::shared_ptr<ReferenceModel> model) {
+    const Params& params, std::shared_ptr<ReferenceModel> model,
+    const ReferenceModelSummary* summary) {
   const Cloud& reference = model->cloud;
-  const Simplified s = simplify(params, reference, nullptr, nullptr);
+  Simplified s;
+  if (summary) {
+    checkSummary(*summary, reference);
+    s.pre.finite = finiteIndices(reference);
+    s.pre.kept = summary->kept;
+    model->gmm = summary->gmm;
+  } else {
+    s = simplify(params, reference, nullptr, nullptr);
+  }
   if (s.pre.kept.size() < 4) {
     throw std::invalid_argument("reference cloud has " + std::to_string(s.pre.kept.size()) +
                                 " usable points after pre-processing; need at least 4");
   }
-  model->gmm = GmmFitter(params.gmm).fit(s.reps);
+  if (!summary) model->gmm = GmmFitter(params.gmm).fit(s.reps);
   model->points.build(reference, s.pre.finite);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
   const RangeImage::Config image_config = rangeImageConfig(params.visibility);
@@ -131,7 +164,9 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
   }
   model->kept = s.pre.kept;
   if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept);
-  if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
+  if (summary) {
+    model->explained_log_density = summary->explained_log_density;
+  } else if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {
     const std::size_t stride = std::max<std::size_t>(1, s.pre.kept.size() / 5000);
     std::vector<int> sample;
     for (std::size_t i = 0; i < s.pre.kept.size(); i += stride) sample.push_back(s.pre.kept[i]);

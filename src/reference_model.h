@@ -10,6 +10,7 @@
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/params.h"
+#include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/multiscale_tree.h"
 #include "novelty_detection/preprocess/preprocess.h"
 #include "novelty_detection/preprocess/up_direction.h"
@@ -83,11 +84,13 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
 /// which sweep each point came from and where it was seen from (types.h). Throws
 /// std::invalid_argument when fewer than 4 usable points remain after pre-processing, or
 /// when `views` does not match the cloud.
-std::shared_ptr<const ReferenceModel> buildReferenceModel(const Params& params,
-                                                          const Cloud& reference,
-                                                          const ReferenceViews& views = {});
+/// With `summary` (Pipeline::setReference), pre-processing and EM are taken from it.
+std::shared_ptr<const ReferenceModel> buildReferenceModel(
+    const Params& params, const Cloud& reference, const ReferenceViews& views = {},
+    const ReferenceModelSummary* summary = nullptr);
 /// The rest of buildReferenceModel, once model->cloud is in the up frame.
 std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
-    const Params& params, std::shared_ptr<ReferenceModel> model);
+    const Params& params, std::shared_ptr<ReferenceModel> model,
+    const ReferenceModelSummary* summary = nullptr);
 
 }  // namespace novelty_detection

@@ -14,6 +14,16 @@ namespace novelty_detection {
 
 struct ReferenceModel;  // pre-processed reference points, its mixture, search structures
 
+/// The costly part of a reference model that depends only on the reference cloud, its views
+/// and the parameters (pre-processing, the multi-scale cut and EM): what a cache of the model
+/// keeps between runs. The search structures and range images are rebuilt from the cloud.
+struct ReferenceModelSummary {
+  Indices kept;  ///< reference points surviving pre-processing, ascending (up frame = input's)
+  Gmm gmm;       ///< Gamma
+  /// Log-density under Gamma above which a point is explained by the map (+inf: off).
+  double explained_log_density = 0.0;
+};
+
 class Pipeline {
  public:
   explicit Pipeline(const Params& params);
@@ -29,6 +39,14 @@ class Pipeline {
   /// when known. Throws std::invalid_argument when fewer than a handful of finite points
   /// remain or when `views` does not match the cloud.
   void setReference(const Cloud& reference, const ReferenceViews& views = {});
+  /// As above, with the summary a previous setReference of the same cloud, views and
+  /// parameters gave (referenceSummary()): pre-processing and EM are skipped. Throws
+  /// std::invalid_argument when the summary does not fit the cloud (an index out of range or
+  /// on a non-finite point, indices not ascending, an invalid Gaussian).
+  void setReference(const Cloud& reference, const ReferenceViews& views,
+                    const ReferenceModelSummary& summary);
+  /// The summary of the current reference model (empty without a reference).
+  ReferenceModelSummary referenceSummary() const;
   /// How many sweep viewpoints the reference's visibility rules use (0: none known).
   std::size_t referenceViewpoints() const;
   bool hasReference() const { return reference_ != nullptr; }

@@ -25,10 +25,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "detect_report.h"
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/io/output_set.h"
 #include "novelty_detection/io/params_io.h"
+#include "novelty_detection/io/reference_cache.h"
 #include "novelty_detection/io/reference_sweeps.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/input_check.h"
@@ -43,7 +45,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: novelty_detect --reference REF.pcd|.ply|REF_DIR --current CUR.pcd|.ply --out DIR "
     "[--config FILE.yaml] [--reference-origin X Y Z] [--current-origin X Y Z] "
-    "[--sensor-frame] [--up X Y Z | --up auto]";
+    "[--sensor-frame] [--up X Y Z | --up auto] [--reference-cache DIR]";
 
 constexpr const char* kHelp = R"(Compares a current cloud with a reference map and writes, into DIR:
 labels.txt, superquadrics.json, report.json, segments.pcd, newly_visible.txt,
@@ -65,6 +67,10 @@ disappeared_labels.txt and disappeared_superquadrics.json.
                            VIEWPOINT is set.
   --up X Y Z | --up auto   which way is up (preprocess/up; default 0 0 1). auto: estimated
                            from the reference (the floor or table plane below the sensor).
+  --reference-cache DIR    keep the reference's model in DIR (created) and read it back on
+                           the next run with the same map and settings: the model is built
+                           once per map (report.json: reference_cache). Default: off for a
+                           file, REF_DIR/.model_cache for a directory; "off" disables it.
 The visibility rules and disappearances need each cloud's sensor origin; without one they
 are off, and stderr and report.json (sensor_origins, visibility_checked) say so.
 DIR/complete, written last, lists the files of the set: without it a run was interrupted.
@@ -76,7 +82,7 @@ Exit codes: 0 done, 1 unreadable or invalid input or configuration, 2 bad argume
 constexpr int kExitNoOverlap = 3;
 
 struct Args {
-  std::string reference, current, out, config, up;
+  std::string reference, current, out, config, up, reference_cache;
   std::optional<Eigen::Vector3f> reference_origin, current_origin;
   bool sensor_frame = false;
   bool help = false;
@@ -99,7 +105,8 @@ Args parseArgs(int argc, char** argv) {
   std::map<std::string, std::string*> opts{{"--reference", &a.reference},
                                            {"--current", &a.current},
                                            {"--out", &a.out},
-                                           {"--config", &a.config}};
+                                           {"--config", &a.config},
+                                           {"--reference-cache", &a.reference_cache}};
   for (int i = 1; i < argc; ++i) {
     const std::string key = argv[i];
     if (key == "--help" || key == "-h") {
@@ -143,149 +150,6 @@ Args parseArgs(int argc, char** argv) {
   return a;
 }
 
-json vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
-
-// A distinct, deterministic colour per segment id (golden-ratio hue walk); grey = not novel.
-void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b) {
-  if (id <= 0) {
-    r = g = b = 150;
-    return;
-  }
-  const double h = std::fmod(id * 0.618033988749895, 1.0) * 6.0;
-  const double x = 1.0 - std::abs(std::fmod(h, 2.0) - 1.0);
-  double rf = 0, gf = 0, bf = 0;
-  switch (static_cast<int>(h)) {
-    case 0:
-      rf = 1, gf = x;
-      break;
-    case 1:
-      rf = x, gf = 1;
-      break;
-    case 2:
-      gf = 1, bf = x;
-      break;
-    case 3:
-      gf = x, bf = 1;
-      break;
-    case 4:
-      rf = x, bf = 1;
-      break;
-    default:
-      rf = 1, bf = x;
-      break;
-  }
-  r = static_cast<std::uint8_t>(55 + 200 * rf);
-  g = static_cast<std::uint8_t>(55 + 200 * gf);
-  b = static_cast<std::uint8_t>(55 + 200 * bf);
-}
-
-json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
-  json list = json::array();
-  for (const auto& sq : superquadrics) {
-    const Eigen::Quaterniond q = sq.quaternion();
-    list.push_back(
-        {{"segment", sq.segment},
-         {"a", vec(sq.a)},
-         {"epsilon", json::array({sq.e1, sq.e2})},
-         {"position", vec(sq.position)},
-         {"orientation",
-          {{"quaternion", json::array({q.x(), q.y(), q.z(), q.w()})}, {"euler", vec(sq.euler)}}},
-         {"points", sq.points},
-         {"residual", sq.residual}});
-  }
-  return list;
-}
-
-/// What the run assumed and could check: the sensor origins, up, the floor.
-struct Assumptions {
-  std::string reference_origin, current_origin;  ///< how each origin was found
-  std::size_t reference_sweeps = 1;              ///< sweeps of a reference directory
-  bool visibility_checked = false, disappearances_checked = false;
-  const nd::Cloud* reference = nullptr;
-  const nd::Cloud* current = nullptr;
-};
-
-json originJson(const nd::Cloud& cloud, const std::string& how) {
-  if (!nd::sensorOriginKnown(cloud.sensor_origin_)) return {{"position", nullptr}, {"from", how}};
-  return {{"position", vec(cloud.sensor_origin_.head<3>().cast<double>())}, {"from", how}};
-}
-
-json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
-                double detect_ms, const Assumptions& as) {
-  const bool checked_disappearances = as.disappearances_checked;
-  json timings = json::object();
-  for (const auto& t : r.timings) timings[t.stage] = t.ms;
-  timings["detect_total"] = detect_ms;
-  timings["reference_model"] = reference_ms;
-  json counts = json::object();
-  for (const auto& [stage, n] : r.point_counts) counts[stage] = n;
-  std::size_t novel = 0;
-  for (bool b : r.novel_gaussian) novel += b;
-  std::size_t newly_visible = 0, disappeared = 0;
-  for (auto f : r.newly_visible) newly_visible += f != 0;
-  for (int l : r.disappeared_labels) disappeared += l > 0;
-  json segments = json::array();
-  for (const auto& s : r.segments) {
-    segments.push_back({{"id", s.id},
-                        {"points", s.indices.size()},
-                        {"centroid", vec(s.centroid)},
-                        {"bbox_min", vec(s.bbox_min)},
-                        {"bbox_max", vec(s.bbox_max)},
-                        {"emd_contribution", s.emd_contribution},
-                        {"gaussians", s.gaussians}});
-  }
-  const nd::AlignmentResult& a = r.alignment;
-  const Eigen::Quaterniond aq(a.correction.rotation());
-  const json alignment = {{"attempted", a.attempted},
-                          {"applied", a.applied},
-                          {"status", a.status},
-                          {"translation", vec(Eigen::Vector3d(a.correction.translation()))},
-                          {"quaternion", json::array({aq.x(), aq.y(), aq.z(), aq.w()})},
-                          {"translation_m", a.translation_m},
-                          {"rotation_deg", a.rotation_deg},
-                          {"fitness_m", a.fitness_m},
-                          {"inlier_fraction", a.inlier_fraction},
-                          {"samples", a.samples},
-                          {"iterations", a.iterations},
-                          {"degenerate_directions", a.degenerate_directions},
-                          {"ms", a.ms}};
-  return {{"timings_ms", timings},
-          {"point_counts", counts},
-          {"alignment", alignment},
-          {"gaussians",
-           {{"reference", pipeline.referenceGmm().size()},
-            {"current", r.current_gmm.size()},
-            {"novel", novel}}},
-          {"emd_before", r.emd_before},
-          {"emd_after", r.emd_after},
-          {"num_segments", r.segments.size()},
-          {"num_superquadrics", r.superquadrics.size()},
-          {"segments", segments},
-          {"newly_visible_points", newly_visible},
-          {"disappeared_points", disappeared},
-          {"num_disappeared_segments", r.disappeared_segments.size()},
-          {"num_disappeared_superquadrics", r.disappeared_superquadrics.size()},
-          {"disappearances_checked", checked_disappearances},
-          {"visibility_checked", as.visibility_checked},
-          {"sensor_origins",
-           {{"reference", as.reference_sweeps > 1 ? json{{"position", nullptr},
-                                                         {"from", as.reference_origin},
-                                                         {"sweeps", as.reference_sweeps}}
-                                                  : originJson(*as.reference, as.reference_origin)},
-            {"current", originJson(*as.current, as.current_origin)}}},
-          {"up", vec(r.up)},
-          {"up_source", r.up_source},
-          {"floor", r.floor_found ? json::array({r.floor[0], r.floor[1], r.floor[2], r.floor[3]})
-                                  : json(nullptr)},
-          {"tau_m", r.tau_m},
-          {"overlap", r.overlap},
-          {"compared", true},
-          {"noise",
-           {{"sigma_m", r.noise_sigma_m},
-            {"model", r.noise_model.empty() ? json(nullptr) : json(r.noise_model)}}},
-          {"warnings", r.warnings}};
-}
-
 int run(const Args& args) {
   if (args.help) {
     std::cout << kUsage << "\n\n" << kHelp;
@@ -301,7 +165,7 @@ int run(const Args& args) {
   nd::ReferenceMap map = nd::loadReference(args.reference, limits);
   nd::Cloud& reference = map.cloud;
   nd::Cloud current = nd::loadCloud(args.current, limits);
-  Assumptions as;
+  nd::cli::Assumptions as;
   // The flags override the configuration (preprocess/reference_origin, current_origin,
   // sensor_frame), which overrides the files' VIEWPOINT.
   const bool sensor_frame = args.sensor_frame || params.preprocess.sensor_frame;
@@ -338,7 +202,17 @@ int run(const Args& args) {
   using Clock = std::chrono::steady_clock;
   nd::Pipeline pipeline(params);
   auto t0 = Clock::now();
-  pipeline.setReference(reference, map.views);
+  // A route map (a directory) keeps its model beside its sweeps unless told otherwise.
+  std::string cache_dir = args.reference_cache;
+  if (cache_dir.empty() && nd::isDirectory(args.reference))
+    cache_dir = (std::filesystem::path(args.reference) / ".model_cache").string();
+  if (cache_dir.empty() || cache_dir == "off") {
+    pipeline.setReference(reference, map.views);
+    as.cache.state = "off";
+  } else {
+    as.cache = nd::setReferenceCached(pipeline, reference, map.views, cache_dir);
+    if (!as.cache.message.empty()) std::cerr << "novelty_detect: " << as.cache.message << "\n";
+  }
   auto t1 = Clock::now();
   nd::Result result;
   try {
@@ -360,7 +234,8 @@ int run(const Args& args) {
   labels.reserve(result.labels.size() * 2);
   for (int l : result.labels) labels += std::to_string(l) + '\n';
   out.writeText("labels.txt", labels);
-  out.writeText("superquadrics.json", superquadricsJson(result.superquadrics).dump(2) + "\n");
+  out.writeText("superquadrics.json",
+                nd::cli::superquadricsJson(result.superquadrics).dump(2) + "\n");
   // Visibility outputs: newly visible flags per current point, disappearance
   // labels per reference point (same convention as labels.txt) and their superquadrics.
   std::string flags;
@@ -372,7 +247,7 @@ int run(const Args& args) {
   for (int l : result.disappeared_labels) gone += std::to_string(l) + '\n';
   out.writeText("disappeared_labels.txt", gone);
   out.writeText("disappeared_superquadrics.json",
-                superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
+                nd::cli::superquadricsJson(result.disappeared_superquadrics).dump(2) + "\n");
   // Disappearances need the current sweep's sensor origin.
   as.disappearances_checked = result.disappearances_checked;
   if (params.visibility.disappearances && !as.disappearances_checked)
@@ -385,7 +260,8 @@ int run(const Args& args) {
                                               : "no floor plane found: +z assumed")
               << "\n";
   for (const std::string& w : result.warnings) std::cerr << "novelty_detect: " << w << "\n";
-  out.writeText("report.json", reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
+  out.writeText("report.json",
+                nd::cli::reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
 
   // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
   const nd::Cloud shown =
@@ -398,7 +274,7 @@ int run(const Args& args) {
   for (std::size_t i = 0; i < current.size(); ++i) {
     auto& p = coloured[i];
     p.x = shown[i].x, p.y = shown[i].y, p.z = shown[i].z;
-    colour(result.labels[i], p.r, p.g, p.b);
+    nd::cli::colour(result.labels[i], p.r, p.g, p.b);
   }
   const std::string segments = out.stagedPath("segments.pcd");
   if (coloured.empty() || pcl::io::savePCDFileBinary(segments, coloured) != 0) {

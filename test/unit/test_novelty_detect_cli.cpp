@@ -348,3 +348,56 @@ TEST(NoveltyDetectCli, OriginAndUpFlags) {
   EXPECT_NE(bad.err.find("preprocess/reference_origin"), std::string::npos) << bad.err;
   fs::remove_all(dir);
 }
+
+// --reference-cache: the first run builds and stores the map's model, the next one reads it
+// back (report.json says which) and writes the same files; a damaged cache file is named on
+// stderr and replaced, and the run still succeeds.
+TEST(NoveltyDetectCli, ReferenceCache) {
+  const fs::path dir = tempDir("cache");
+  sim::SceneConfig c;
+  c.seed = 9;
+  c.novelty_kinds = {sim::NoveltyKind::kBox};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
+  const std::string args = "--reference " + (dir / "ref.pcd").string() + " --current " +
+                           (dir / "cur.pcd").string() + " --reference-cache " +
+                           (dir / "models").string() + " --out ";
+  auto report = [&](const std::string& run) {
+    std::ifstream in(dir / run / "report.json");
+    return nlohmann::json::parse(in);
+  };
+  auto file = [&](const std::string& run, const char* name) {
+    std::ifstream in(dir / run / name);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  ASSERT_EQ(runCli(args + (dir / "first").string(), dir).code, 0);
+  ASSERT_EQ(runCli(args + (dir / "second").string(), dir).code, 0);
+  const auto first = report("first"), second = report("second");
+  EXPECT_EQ(first["reference_cache"]["state"], "written");
+  EXPECT_EQ(second["reference_cache"]["state"], "hit");
+  EXPECT_EQ(first["reference_cache"]["key"], second["reference_cache"]["key"]);
+  for (const char* name : {"labels.txt", "superquadrics.json", "disappeared_labels.txt"})
+    EXPECT_EQ(file("first", name), file("second", name)) << name;
+  EXPECT_NE(file("first", "labels.txt").find('1'), std::string::npos);  // something found
+  const fs::path model =
+      dir / "models" / (first["reference_cache"]["key"].get<std::string>() + ".refmodel");
+  ASSERT_TRUE(fs::exists(model));
+  fs::resize_file(model, fs::file_size(model) / 2);
+  const CliRun damaged = runCli(args + (dir / "third").string(), dir);
+  ASSERT_EQ(damaged.code, 0) << damaged.err;
+  EXPECT_NE(damaged.err.find(model.string()), std::string::npos) << damaged.err;
+  EXPECT_EQ(report("third")["reference_cache"]["state"], "replaced");
+  EXPECT_EQ(file("first", "labels.txt"), file("third", "labels.txt"));
+  // Without the flag the cache is off.
+  ASSERT_EQ(runCli("--reference " + (dir / "ref.pcd").string() + " --current " +
+                       (dir / "cur.pcd").string() + " --out " + (dir / "plain").string(),
+                   dir)
+                .code,
+            0);
+  EXPECT_EQ(report("plain")["reference_cache"]["state"], "off");
+  EXPECT_EQ(runCli(args, dir).code >> 8, 2);  // --out without its value
+  fs::remove_all(dir);
+}

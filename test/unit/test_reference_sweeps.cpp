@@ -215,6 +215,20 @@ TEST(ReferenceSweeps, CommandLineTakesADirectory) {
   std::size_t lines = 0;
   for (std::string line; std::getline(labels, line);) ++lines;
   EXPECT_EQ(lines, a.size() + b.size());  // one per point of the merged sweeps
+  // A route map keeps its model beside its sweeps: the next run reads it back, and the
+  // cache is not taken for a sweep.
+  EXPECT_EQ(report["reference_cache"]["state"], "written");
+  const std::string key = report["reference_cache"]["key"];
+  EXPECT_TRUE(fs::exists(dir / "route" / ".model_cache" / (key + ".refmodel")));
+  ASSERT_EQ(std::system((base + " > /dev/null 2>&1").c_str()), 0);
+  std::ifstream again(dir / "out" / "report.json");
+  const nlohmann::json second = nlohmann::json::parse(again);
+  EXPECT_EQ(second["reference_cache"]["state"], "hit");
+  EXPECT_EQ(second["sensor_origins"]["reference"]["sweeps"].get<int>(), 2);
+  EXPECT_EQ(second["num_segments"], report["num_segments"]);
+  ASSERT_EQ(std::system((base + " --reference-cache off > /dev/null 2>&1").c_str()), 0);
+  std::ifstream off(dir / "out" / "report.json");
+  EXPECT_EQ(nlohmann::json::parse(off)["reference_cache"]["state"], "off");
   // Each sweep states its origin: a reference origin on top is refused.
   const int code = std::system((base + " --reference-origin 0 0 1 > /dev/null 2>&1").c_str());
   EXPECT_EQ(WEXITSTATUS(code), 1);
