@@ -88,11 +88,16 @@ constexpr double kFrameRatio = 2.0;
 void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& own,
                  const detail::KnnTree& b, double tol, double novelty_distance, const Cloud& cloud,
                  const detail::KnnTree& other, std::vector<std::uint8_t>* mask) {
-  const std::vector<double> spacing = own.kthNeighbourDistances(kSpacingNeighbours);
+  // The point's own sampling spacing: its k-th nearest point other than itself (k clamped to
+  // the points there are), i.e. the (k+1)-th nearest with itself counted.
+  const int k = std::min<int>(kSpacingNeighbours, static_cast<int>(own.size()) - 1) + 1;
   for (std::size_t i = 0; i < a.size(); ++i) {
-    const double ds = b.nearestDistance(a[i]);
-    if (!(ds <= std::max(tol, kSpacingFactor * spacing[i]))) continue;
+    // Cheapest test first: a point the map explains within both distances fits neither rule
+    // (most of a sweep), whatever the robot's frame says.
     const double dm = other.nearestDistance(cloud[a_index[i]].getVector3fMap());
+    if (dm <= tol && dm <= novelty_distance) continue;
+    const double ds = b.nearestDistance(a[i]);
+    if (!(ds <= tol) && !(ds <= kSpacingFactor * own.kthNearestDistance(a[i], k))) continue;
     const bool plain = ds <= tol && dm > tol;
     const bool sparse = dm > std::max(novelty_distance, kFrameRatio * ds);
     if (plain || sparse) (*mask)[a_index[i]] = 1;
