@@ -191,26 +191,23 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
   if (nodes_.empty() || !(radius > 0)) return;
   const float q[3] = {p.x(), p.y(), p.z()};
   const float r2 = static_cast<float>(radius * radius);
-  std::vector<std::pair<float, int>> found;
-  std::vector<int> stack{0};
-  while (!stack.empty()) {
-    const Node& node = nodes_[stack.back()];
-    stack.pop_back();
+  // Depth-first, left before right: at most one pending sibling per level.
+  int stack[2 * kMaxDepth];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
     if (!(boxDistance2(q, node.lo, node.hi) < r2)) continue;
     if (node.left >= 0) {
-      stack.push_back(node.right);
-      stack.push_back(node.left);
+      stack[top++] = node.right;
+      stack[top++] = node.left;
       continue;
     }
     for (int i = node.begin; i < node.end; ++i) {
       const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      const float d = dx * dx + dy * dy + dz * dz;
-      if (d < r2) found.emplace_back(d, id_[i]);
+      if (dx * dx + dy * dy + dz * dz < r2) out->push_back(id_[i]);
     }
   }
-  std::sort(found.begin(), found.end());
-  out->reserve(out->size() + found.size());
-  for (const auto& f : found) out->push_back(f.second);
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {

@@ -37,7 +37,8 @@ class KnnTree {
   double kthNearestDistance(const Eigen::Vector3f& p, int k) const;
 
   /// Positions of the indexed points closer than `radius` to `p` (squared distance below
-  /// radius^2 in float), appended to `out` nearest first (ties by position). Exact.
+  /// radius^2 in float), appended to `out` in the tree's order (the same for the same points
+  /// and query). Exact.
   void within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const;
 
   std::size_t size() const { return x_.size(); }
@@ -49,6 +50,8 @@ class KnnTree {
     int left = -1, right = -1, parent = -1;
   };
   static constexpr int kLeafSize = 16;
+  /// Median splits: 2^kMaxDepth leaves hold far more points than an index can address.
+  static constexpr int kMaxDepth = 40;
 
   /// Runs the k-nearest search for every point and stores reduce(sorted squared distances,
   /// count) at the point's input position.
