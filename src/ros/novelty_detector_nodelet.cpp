@@ -20,6 +20,7 @@
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/sensor_origin.h"
+#include "novelty_detection/process_memory.h"
 #include "novelty_detection/ros/conversions.h"
 #include "novelty_detection/ros/operator_display.h"
 #include "novelty_detection/ros/result_messages.h"
@@ -84,6 +85,7 @@ void NoveltyDetectorNodelet::onInit() {
   try {
     params_ = loadRosParams(pnh);
     node_params_ = loadNodeParams(pnh);
+    if (node_params_.keep_freed_buffers) keepFreedBuffers();
     unknown_params_ = unknownDetectorParams(pnh);
     if (!unknown_params_.empty() && pnh.param("strict_parameters", false))
       throw std::invalid_argument("unknown parameter(s) " + joinNames(unknown_params_) +

@@ -7,14 +7,17 @@
 #include <string>
 
 #include "novelty_detection/error_text.h"
+#include "novelty_detection/process_memory.h"
 
 namespace novelty_detection {
 
 /// parse(argc, argv) returns the tool's options; run(options) returns its exit code. Errors
-/// print as "NAME: message" (plus `usage_hint` after a bad argument).
+/// print as "NAME: message" (plus `usage_hint` after a bad argument). Freed buffers stay in
+/// the process's heap (process_memory.h).
 template <class Parse, class Run>
 int runTool(const char* name, const std::string& usage_hint, int argc, char** argv, Parse parse,
             Run run) {
+  keepFreedBuffers();
   decltype(parse(argc, argv)) options;
   try {
     options = parse(argc, argv);

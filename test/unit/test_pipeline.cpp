@@ -6,6 +6,7 @@
 #include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/input_check.h"
+#include "novelty_detection/process_memory.h"
 #include "novelty_detection/sim/scene.h"
 
 using namespace novelty_detection;
@@ -148,4 +149,15 @@ TEST(Pipeline, ObjectCutByATiltLineGapStaysOneSegment) {
   for (const ObjectScore& o : sc.objects) EXPECT_GE(o.best_iou, 0.5) << "object " << o.id;
   EXPECT_TRUE(sc.success);
   EXPECT_EQ(sc.false_segments, 0);
+}
+
+// Freed buffers kept in the heap: available with glibc, and calling it again is harmless.
+TEST(ProcessMemory, KeepFreedBuffers) {
+#if defined(__GLIBC__)  // <gtest/gtest.h> includes the C library's headers
+
+  EXPECT_TRUE(keepFreedBuffers());
+  EXPECT_TRUE(keepFreedBuffers());
+#else
+  EXPECT_FALSE(keepFreedBuffers());
+#endif
 }
