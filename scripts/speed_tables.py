@@ -130,7 +130,9 @@ for stage in stages:
     for t in (1, 2):
         v = [r[stage] for r in runs[t] if stage in r]
         cells += [ms(statistics.median(v)), ms(max(v))] if v else ["-", "-"]
-    name = "**detection, all stages**" if stage == "detect_total" else stage
+    name = {"detect_total": "**detection, all stages**",
+            "reference_model": "reference model (once per map; not part of detection)"}.get(
+                stage, stage)
     print(f"| {name} | " + " | ".join(cells) + " |")
 print()
 print("| suite | threads | scenes | success | point F1 (scenes with new points) |")
@@ -139,7 +141,8 @@ for suite in SUITES:
     for t in (1, 2):
         s = scored(f"{OUT}/threads_{t}/{suite}.json")
         if s:
-            print(f"| {suite} | {t} | {s['scenes']} | {100 * s['success_rate']:.1f} % | "
+            label = "30-scene suite" if suite == "suite" else "viewpoint suite"
+            print(f"| {label} | {t} | {s['scenes']} | {100 * s['success_rate']:.1f} % | "
                   f"{s['mean_f1']:.3f} |")
 print()
 
