@@ -206,7 +206,7 @@ void segmentCandidates(Detection& d) {
   d.result.point_counts.emplace_back("novel_points", cand.novel.size());
   const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
   // One index over the kept points serves the link radius cap and the object completion.
-  d.kept_index.build(current, d.s.pre.kept);
+  d.kept_index.build(current, d.s.pre.kept, d.params.compute.resolved());
   SweepContext sweep;
   sweep.kept = &d.s.pre.kept;
   sweep.kept_index = &d.kept_index;

@@ -144,7 +144,8 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
                                 " usable points after pre-processing; need at least 4");
   }
   if (!summary) model->gmm = GmmFitter(params.gmm).fit(s.reps);
-  model->points.build(reference, s.pre.finite);
+  const int threads = params.compute.resolved();
+  model->points.build(reference, s.pre.finite, threads);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
   const RangeImage::Config image_config = rangeImageConfig(params.visibility);
   if (!model->views.empty()) {
@@ -163,7 +164,7 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     model->visibility.add(std::move(image));
   }
   model->kept = s.pre.kept;
-  if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept);
+  if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept, threads);
   if (summary) {
     model->explained_log_density = summary->explained_log_density;
   } else if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {

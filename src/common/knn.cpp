@@ -11,11 +11,6 @@ namespace novelty_detection {
 namespace detail {
 namespace {
 
-struct Item {
-  Eigen::Vector3f p;
-  int id;
-};
-
 inline float boxDistance2(const float* q, const float* lo, const float* hi) {
   float d2 = 0.f;
   for (int a = 0; a < 3; ++a) {
@@ -27,52 +22,98 @@ inline float boxDistance2(const float* q, const float* lo, const float* hi) {
 
 }  // namespace
 
-KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points) {
+/// Builds the subtree of items[begin, end) into `nodes` in depth-first preorder (ids from
+/// nodes.size(); the subtree's root gets `parent`), and the leaf of each item position.
+void KnnTree::buildSubtree(std::vector<Item>& items, int begin, int end, int parent,
+                           std::vector<Node>* nodes, std::vector<int>* leaf_of) {
+  // Median splits along the widest box side; items are permuted in place.
+  struct Task {
+    int begin, end, parent;
+    bool right;
+  };
+  std::vector<Task> stack{{begin, end, parent, false}};
+  bool first = true;
+  while (!stack.empty()) {
+    const Task task = stack.back();
+    stack.pop_back();
+    const int id = static_cast<int>(nodes->size());
+    nodes->push_back(nodeOver(items, task.begin, task.end, task.parent));
+    if (!first) {
+      Node& up = (*nodes)[task.parent];
+      (task.right ? up.right : up.left) = id;
+    }
+    first = false;
+    const int mid = split(items, (*nodes)[id]);
+    if (mid < 0) {
+      for (int i = task.begin; i < task.end; ++i) (*leaf_of)[i] = id;
+      continue;
+    }
+    stack.push_back({mid, task.end, id, true});
+    stack.push_back({task.begin, mid, id, false});
+  }
+}
+
+KnnTree::Node KnnTree::nodeOver(const std::vector<Item>& items, int begin, int end, int parent) {
+  Node node;
+  node.begin = begin;
+  node.end = end;
+  node.parent = parent;
+  Eigen::Vector3f lo = items[begin].p, hi = lo;
+  for (int i = begin + 1; i < end; ++i) {
+    lo = lo.cwiseMin(items[i].p);
+    hi = hi.cwiseMax(items[i].p);
+  }
+  for (int a = 0; a < 3; ++a) {
+    node.lo[a] = lo[a];
+    node.hi[a] = hi[a];
+  }
+  return node;
+}
+
+int KnnTree::split(std::vector<Item>& items, const Node& node) {
+  if (node.end - node.begin <= kLeafSize) return -1;
+  int dim = 0;
+  float widest = -1.f;
+  for (int a = 0; a < 3; ++a) {
+    if (node.hi[a] - node.lo[a] > widest) widest = node.hi[a] - node.lo[a], dim = a;
+  }
+  const int mid = node.begin + (node.end - node.begin) / 2;
+  std::nth_element(items.begin() + node.begin, items.begin() + mid, items.begin() + node.end,
+                   [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
+  return mid;
+}
+
+KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
   const int n = static_cast<int>(points.size());
   std::vector<Item> items(n);
   for (int i = 0; i < n; ++i) items[i] = {points[i], i};
   leaf_of_.assign(n, -1);
   nodes_.reserve(static_cast<std::size_t>(n / (kLeafSize / 2) + 2));
-  if (n > 0) {
-    // Median splits along the widest box side; items are permuted in place.
-    struct Task {
-      int begin, end, parent;
-      bool right;
-    };
-    std::vector<Task> stack{{0, n, -1, false}};
-    while (!stack.empty()) {
-      const Task task = stack.back();
-      stack.pop_back();
-      Node node;
-      node.begin = task.begin;
-      node.end = task.end;
-      node.parent = task.parent;
-      Eigen::Vector3f lo = items[task.begin].p, hi = lo;
-      for (int i = task.begin + 1; i < task.end; ++i) {
-        lo = lo.cwiseMin(items[i].p);
-        hi = hi.cwiseMax(items[i].p);
+  constexpr int kParallelBuild = 20000;  // below this, starting a thread costs more
+  if (n > 0 && threads > 1 && n >= kParallelBuild) {
+    // The root's split here, its two subtrees on two threads, then numbered as the serial
+    // build numbers them (root, left subtree, right subtree, each in preorder): the same tree.
+    nodes_.push_back(nodeOver(items, 0, n, -1));
+    const int mid = split(items, nodes_[0]);
+    std::vector<Node> part[2];
+    const int range[2][2] = {{0, mid}, {mid, n}};
+    parallelFor(2, threads, [&](int k) {
+      part[k].reserve(static_cast<std::size_t>((range[k][1] - range[k][0]) / (kLeafSize / 2) + 2));
+      buildSubtree(items, range[k][0], range[k][1], -1, &part[k], &leaf_of_);
+    });
+    const int offset[2] = {1, 1 + static_cast<int>(part[0].size())};
+    for (int k = 0; k < 2; ++k) {
+      for (Node node : part[k]) {
+        node.parent = node.parent < 0 ? 0 : node.parent + offset[k];
+        if (node.left >= 0) node.left += offset[k], node.right += offset[k];
+        nodes_.push_back(node);
       }
-      for (int a = 0; a < 3; ++a) {
-        node.lo[a] = lo[a];
-        node.hi[a] = hi[a];
-      }
-      const int id = static_cast<int>(nodes_.size());
-      nodes_.push_back(node);
-      if (task.parent >= 0) {
-        (task.right ? nodes_[task.parent].right : nodes_[task.parent].left) = id;
-      }
-      if (task.end - task.begin <= kLeafSize) {
-        for (int i = task.begin; i < task.end; ++i) leaf_of_[i] = id;
-        continue;
-      }
-      int dim = 0;
-      (hi - lo).maxCoeff(&dim);
-      const int mid = task.begin + (task.end - task.begin) / 2;
-      std::nth_element(items.begin() + task.begin, items.begin() + mid, items.begin() + task.end,
-                       [dim](const Item& a, const Item& b) { return a.p(dim) < b.p(dim); });
-      stack.push_back({mid, task.end, id, true});
-      stack.push_back({task.begin, mid, id, false});
+      for (int i = range[k][0]; i < range[k][1]; ++i) leaf_of_[i] += offset[k];
     }
+    nodes_[0].left = offset[0];
+    nodes_[0].right = offset[1];
+  } else if (n > 0) {
+    buildSubtree(items, 0, n, -1, &nodes_, &leaf_of_);
   }
   x_.resize(n);
   y_.resize(n);

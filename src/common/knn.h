@@ -17,8 +17,9 @@ class KnnTree {
  public:
   /// An empty tree.
   KnnTree() = default;
-  /// Indexes `points` (copied, in any order); results refer to positions in `points`.
-  explicit KnnTree(const std::vector<Eigen::Vector3f>& points);
+  /// Indexes `points` (copied, in any order); results refer to positions in `points`. The
+  /// build uses up to `threads` threads (two subtrees at once); the tree is the same.
+  explicit KnnTree(const std::vector<Eigen::Vector3f>& points, int threads = 1);
 
   /// For every point, the mean Euclidean distance to its k nearest OTHER points (k is
   /// clamped to size - 1; 0 when the tree has a single point). Exact.
@@ -49,6 +50,16 @@ class KnnTree {
     int begin, end;      ///< range in tree order
     int left = -1, right = -1, parent = -1;
   };
+  struct Item {
+    Eigen::Vector3f p;
+    int id;
+  };
+  static Node nodeOver(const std::vector<Item>& items, int begin, int end, int parent);
+  /// Partitions the node's items about the median of its widest side; returns the middle
+  /// position, or -1 for a leaf.
+  static int split(std::vector<Item>& items, const Node& node);
+  static void buildSubtree(std::vector<Item>& items, int begin, int end, int parent,
+                           std::vector<Node>* nodes, std::vector<int>* leaf_of);
   static constexpr int kLeafSize = 16;
   /// Median splits: 2^kMaxDepth leaves hold far more points than an index can address.
   static constexpr int kMaxDepth = 40;

@@ -95,7 +95,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
 
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
   // the distribution of those means.
-  std::vector<double> mean_dist = detail::KnnTree(pts).meanNeighbourDistances(k, threads);
+  std::vector<double> mean_dist = detail::KnnTree(pts, threads).meanNeighbourDistances(k, threads);
   auto limitOf = [n, std_mul](const std::vector<double>& v) {
     double mu = 0.0;
     for (double x : v) mu += x;

@@ -28,7 +28,7 @@ NearestNeighbourIndex::~NearestNeighbourIndex() = default;
 NearestNeighbourIndex::NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept = default;
 NearestNeighbourIndex& NearestNeighbourIndex::operator=(NearestNeighbourIndex&&) noexcept = default;
 
-void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
+void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices, int threads) {
   impl_ = std::make_unique<Impl>();
   auto add = [&](const PointT& p) {
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
@@ -41,7 +41,7 @@ void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices) {
     impl_->points.reserve(indices.size());
     for (int i : indices) add(cloud[i]);
   }
-  impl_->tree = detail::KnnTree(impl_->points);
+  impl_->tree = detail::KnnTree(impl_->points, threads);
 }
 
 bool NearestNeighbourIndex::empty() const { return impl_->points.empty(); }

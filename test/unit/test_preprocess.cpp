@@ -105,6 +105,26 @@ TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
       nd::detail::KnnTree(std::vector<Eigen::Vector3f>{}).meanNeighbourDistances(8).empty());
 }
 
+// A tree built on two threads (its two subtrees at once) is the serial one: every query
+// answers the same, to the bit.
+TEST(KnnTree, ParallelBuildIsTheSameTree) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> u(0.f, 4.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 50000; ++k) pts.emplace_back(u(rng), u(rng), 0.05f * u(rng));
+  const nd::detail::KnnTree serial(pts, 1), parallel(pts, 2);
+  EXPECT_EQ(serial.meanNeighbourDistances(8), parallel.meanNeighbourDistances(8));
+  for (int q = 0; q < 500; ++q) {
+    const Eigen::Vector3f p(u(rng), u(rng), 0.05f * u(rng));
+    ASSERT_EQ(serial.nearestDistance(p), parallel.nearestDistance(p));
+    ASSERT_EQ(serial.kthNearestDistance(p, 9), parallel.kthNearestDistance(p, 9));
+    std::vector<int> a, b;
+    serial.within(p, 0.05, &a);
+    parallel.within(p, 0.05, &b);
+    ASSERT_EQ(a, b);  // the same order too: the same tree
+  }
+}
+
 // The queries from any point (the distances to the map, the k-th neighbour spacing and the
 // radius searches of segmentation) against brute force, duplicates and boundaries included.
 TEST(KnnTree, PointQueriesMatchBruteForce) {

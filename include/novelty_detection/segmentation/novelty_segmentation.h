@@ -33,8 +33,9 @@ class NearestNeighbourIndex {
   NearestNeighbourIndex(NearestNeighbourIndex&&) noexcept;
   NearestNeighbourIndex& operator=(NearestNeighbourIndex&&) noexcept;
 
-  /// Indexes cloud[indices] (all points when indices is empty; non-finite points skipped).
-  void build(const Cloud& cloud, const Indices& indices = {});
+  /// Indexes cloud[indices] (all points when indices is empty; non-finite points skipped),
+  /// building on up to `threads` threads (the index is the same).
+  void build(const Cloud& cloud, const Indices& indices = {}, int threads = 1);
   bool empty() const;
   /// Distance from p to the nearest indexed point (+inf when the index is empty).
   double distance(const Eigen::Vector3f& p) const;
