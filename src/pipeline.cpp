@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "common/parallel.h"
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/mixture/gmm.h"
 #include "novelty_detection/mixture/novelty_selection.h"
@@ -351,44 +352,54 @@ FitBoundsSource boundsSource(Detection& d) {
   return source;
 }
 
-/// Shape retrieval (Sec. V) per segment: the cut's representatives inside the segment are
-/// the coarse points. A failed fit never loses the detection.
+/// Shape retrieval (Sec. V) per segment, new and disappeared ones as one list of jobs on
+/// compute/threads (a job alone keeps its inner parallel loops): a new segment's coarse
+/// points are the cut's representatives inside it. A failed fit never loses the detection.
+/// Results are appended in segment order whatever the threads.
 void fitSuperquadrics(Detection& d) {
   const SuperquadricParams& p = d.params.superquadric;
   Result& result = d.result;
-  if (p.enabled && !result.segments.empty()) {
-    ShapeRetrieval retrieval(p);
-    retrieval.setThreads(d.params.compute.resolved());
-    const MultiScaleTree::Cut& fine_cut = d.s.fine;
-    const FitBoundsSource source = boundsSource(d);
-    for (const Segment& seg : result.segments) {
-      Points3d fine, coarse;
-      fine.reserve(seg.indices.size());
-      std::vector<char> seen(fine_cut.points.size(), 0);
-      for (int i : seg.indices) {
-        fine.push_back(point3f((*d.current)[i]).cast<double>());
-        const int c = fine_cut.cluster_of[i];
-        if (c >= 0 && !seen[c]) {
-          seen[c] = 1;
-          coarse.push_back(fine_cut.points[c].cast<double>());
-        }
-      }
-      try {
-        const FitBounds bounds = fitBoundsFor(fine, seg.id, source, p);
-        for (Superquadric sq : retrieval.recover(fine, coarse, seg.id, &bounds)) {
-          for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
-          result.superquadrics.push_back(std::move(sq));
-        }
-      } catch (const std::exception&) {
-        // Keep the segment without a shape.
+  const std::size_t news = p.enabled ? result.segments.size() : 0;
+  const std::size_t gone = p.enabled ? result.disappeared_segments.size() : 0;
+  if (news + gone == 0) return;
+  const int threads = d.params.compute.resolved();
+  const MultiScaleTree::Cut& fine_cut = d.s.fine;
+  const FitBoundsSource source = news > 0 ? boundsSource(d) : FitBoundsSource();
+  std::vector<std::vector<Superquadric>> shapes(news + gone);
+  detail::parallelFor(static_cast<int>(news + gone), threads, [&](int job) {
+    ShapeRetrieval retrieval(p);  // one per job: its fitters keep statistics
+    retrieval.setThreads(threads);
+    if (static_cast<std::size_t>(job) >= news) {
+      shapes[job] =
+          disappearedShapes(retrieval, d.ref.cloud, result.disappeared_segments[job - news]);
+      return;
+    }
+    const Segment& seg = result.segments[job];
+    Points3d fine, coarse;
+    fine.reserve(seg.indices.size());
+    std::vector<char> seen(fine_cut.points.size(), 0);
+    for (int i : seg.indices) {
+      fine.push_back(point3f((*d.current)[i]).cast<double>());
+      const int c = fine_cut.cluster_of[i];
+      if (c >= 0 && !seen[c]) {
+        seen[c] = 1;
+        coarse.push_back(fine_cut.points[c].cast<double>());
       }
     }
-    d.timer.lap("superquadrics");
+    try {
+      const FitBounds bounds = fitBoundsFor(fine, seg.id, source, p);
+      shapes[job] = retrieval.recover(fine, coarse, seg.id, &bounds);
+      for (Superquadric& sq : shapes[job])
+        for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
+    } catch (const std::exception&) {
+      shapes[job].clear();  // keep the segment without a shape
+    }
+  });
+  for (std::size_t job = 0; job < shapes.size(); ++job) {
+    auto& into = job < news ? result.superquadrics : result.disappeared_superquadrics;
+    for (Superquadric& sq : shapes[job]) into.push_back(std::move(sq));
   }
-  if (p.enabled && !result.disappeared_segments.empty()) {
-    fitDisappearedSuperquadrics(p, d.ref.cloud, &result);
-    d.timer.lap("disappeared_superquadrics");
-  }
+  d.timer.lap("superquadrics");
 }
 
 /// Pre-processing, the multi-scale cut, the floor and tau of the sweep as it stands.

@@ -80,27 +80,34 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   return true;
 }
 
+std::vector<Superquadric> disappearedShapes(const ShapeRetrieval& retrieval, const Cloud& reference,
+                                            const Segment& seg) {
+  Points3d fine, coarse;
+  fine.reserve(seg.indices.size());
+  for (int i : seg.indices) fine.push_back(reference[i].getVector3fMap().cast<double>());
+  // No multi-scale cut of the reference is kept: an even subsample (about one point in
+  // eight, the cut's typical thinning on walls and objects) plays the coarse scale.
+  const std::size_t stride = fine.size() >= 88 ? 8 : 1;
+  for (std::size_t k = 0; k < fine.size(); k += stride) coarse.push_back(fine[k]);
+  std::vector<Superquadric> out;
+  try {
+    out = retrieval.recover(fine, coarse, seg.id);
+  } catch (const std::exception&) {
+    return {};  // keep the disappearance without a shape
+  }
+  for (Superquadric& sq : out)
+    for (int& k : sq.indices) k = seg.indices[k];  // into the reference cloud
+  return out;
+}
+
 void fitDisappearedSuperquadrics(const SuperquadricParams& params, const Cloud& reference,
                                  Result* result) {
   result->disappeared_superquadrics.clear();
   if (!params.enabled) return;
   const ShapeRetrieval retrieval(params);
   for (const Segment& seg : result->disappeared_segments) {
-    Points3d fine, coarse;
-    fine.reserve(seg.indices.size());
-    for (int i : seg.indices) fine.push_back(reference[i].getVector3fMap().cast<double>());
-    // No multi-scale cut of the reference is kept: an even subsample (about one point in
-    // eight, the cut's typical thinning on walls and objects) plays the coarse scale.
-    const std::size_t stride = fine.size() >= 88 ? 8 : 1;
-    for (std::size_t k = 0; k < fine.size(); k += stride) coarse.push_back(fine[k]);
-    try {
-      for (Superquadric sq : retrieval.recover(fine, coarse, seg.id)) {
-        for (int& k : sq.indices) k = seg.indices[k];  // into the reference cloud
-        result->disappeared_superquadrics.push_back(std::move(sq));
-      }
-    } catch (const std::exception&) {
-      // Keep the disappearance without a shape.
-    }
+    for (Superquadric& sq : disappearedShapes(retrieval, reference, seg))
+      result->disappeared_superquadrics.push_back(std::move(sq));
   }
 }
 

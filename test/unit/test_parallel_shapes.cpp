@@ -179,18 +179,36 @@ TEST(ShapeRetrieval, ResultDoesNotDependOnThreadCount) {
   }
 }
 
+// New and disappeared segments' shapes are fitted as one list of jobs: the same on any
+// number of threads, in segment order.
 TEST(Pipeline, ResultDoesNotDependOnThreadCount) {
   sim::SceneConfig cfg;
   cfg.seed = 5;
-  cfg.novelty_kinds = {sim::NoveltyKind::kPerson, sim::NoveltyKind::kBox};
+  cfg.novelty_kinds = {sim::NoveltyKind::kPerson, sim::NoveltyKind::kBox,
+                       sim::NoveltyKind::kRemovedObject};
   const sim::ScenePair s = sim::generateScenePair(cfg);
-  Result results[2];
-  for (int k = 0; k < 2; ++k) {
+  Result results[3];
+  for (int k = 0; k < 3; ++k) {
     Params p;
     p.compute.threads = k + 1;
     Pipeline pipeline(p);
     pipeline.setReference(s.reference);
     results[k] = pipeline.detect(s.current);
+  }
+  ASSERT_GE(results[0].disappeared_superquadrics.size(), 1u);
+  for (int k = 1; k < 3; ++k) {
+    ASSERT_EQ(results[0].disappeared_superquadrics.size(),
+              results[k].disappeared_superquadrics.size());
+    for (std::size_t j = 0; j < results[0].disappeared_superquadrics.size(); ++j) {
+      const Superquadric &a = results[0].disappeared_superquadrics[j],
+                         &b = results[k].disappeared_superquadrics[j];
+      EXPECT_EQ(a.segment, b.segment);
+      EXPECT_EQ(a.indices, b.indices);
+      EXPECT_EQ(a.a, b.a);
+      EXPECT_EQ(a.position, b.position);
+    }
+    EXPECT_EQ(results[0].labels, results[k].labels);
+    EXPECT_EQ(results[0].superquadrics.size(), results[k].superquadrics.size());
   }
   EXPECT_EQ(results[0].labels, results[1].labels);
   ASSERT_EQ(results[0].superquadrics.size(), results[1].superquadrics.size());

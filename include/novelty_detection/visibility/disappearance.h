@@ -13,6 +13,7 @@
 #pragma once
 
 #include "novelty_detection/params.h"
+#include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/types.h"
 #include "novelty_detection/visibility/visibility.h"
 
@@ -28,8 +29,14 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
                         const Cloud& current, double tau_m, Result* result,
                         const RangeImage* current_image = nullptr);
 
-/// The superquadric part of findDisappearances (separate so that its cost is timed apart).
+/// The superquadric part of findDisappearances: the shapes of each disappeared segment
+/// (disappearedShapes), in segment order.
 void fitDisappearedSuperquadrics(const SuperquadricParams& params, const Cloud& reference,
                                  Result* result);
+
+/// The superquadrics of one disappeared segment of `reference` (indices into it); empty when
+/// its fit fails. `retrieval` is not shared with another thread while this runs.
+std::vector<Superquadric> disappearedShapes(const ShapeRetrieval& retrieval, const Cloud& reference,
+                                            const Segment& segment);
 
 }  // namespace novelty_detection
