@@ -22,27 +22,25 @@ inline float boxDistance2(const float* q, const float* lo, const float* hi) {
 
 }  // namespace
 
-/// Builds the subtree of items[begin, end) into `nodes` in depth-first preorder (ids from
-/// nodes.size(); the subtree's root gets `parent`), and the leaf of each item position.
-void KnnTree::buildSubtree(std::vector<Item>& items, int begin, int end, int parent,
-                           std::vector<Node>* nodes, std::vector<int>* leaf_of) {
+/// Builds the subtree of items[begin, end) into `nodes` (empty) in depth-first preorder, its
+/// root without a parent, and the leaf of each item position.
+void KnnTree::buildSubtree(std::vector<Item>& items, int begin, int end, std::vector<Node>* nodes,
+                           std::vector<int>* leaf_of) {
   // Median splits along the widest box side; items are permuted in place.
   struct Task {
     int begin, end, parent;
     bool right;
   };
-  std::vector<Task> stack{{begin, end, parent, false}};
-  bool first = true;
+  std::vector<Task> stack{{begin, end, -1, false}};
   while (!stack.empty()) {
     const Task task = stack.back();
     stack.pop_back();
     const int id = static_cast<int>(nodes->size());
     nodes->push_back(nodeOver(items, task.begin, task.end, task.parent));
-    if (!first) {
+    if (task.parent >= 0) {
       Node& up = (*nodes)[task.parent];
       (task.right ? up.right : up.left) = id;
     }
-    first = false;
     const int mid = split(items, (*nodes)[id]);
     if (mid < 0) {
       for (int i = task.begin; i < task.end; ++i) (*leaf_of)[i] = id;
@@ -99,7 +97,7 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
     const int range[2][2] = {{0, mid}, {mid, n}};
     parallelFor(2, threads, [&](int k) {
       part[k].reserve(static_cast<std::size_t>((range[k][1] - range[k][0]) / (kLeafSize / 2) + 2));
-      buildSubtree(items, range[k][0], range[k][1], -1, &part[k], &leaf_of_);
+      buildSubtree(items, range[k][0], range[k][1], &part[k], &leaf_of_);
     });
     const int offset[2] = {1, 1 + static_cast<int>(part[0].size())};
     for (int k = 0; k < 2; ++k) {
@@ -113,7 +111,7 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
     nodes_[0].left = offset[0];
     nodes_[0].right = offset[1];
   } else if (n > 0) {
-    buildSubtree(items, 0, n, -1, &nodes_, &leaf_of_);
+    buildSubtree(items, 0, n, &nodes_, &leaf_of_);
   }
   x_.resize(n);
   y_.resize(n);

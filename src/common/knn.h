@@ -58,8 +58,8 @@ class KnnTree {
   /// Partitions the node's items about the median of its widest side; returns the middle
   /// position, or -1 for a leaf.
   static int split(std::vector<Item>& items, const Node& node);
-  static void buildSubtree(std::vector<Item>& items, int begin, int end, int parent,
-                           std::vector<Node>* nodes, std::vector<int>* leaf_of);
+  static void buildSubtree(std::vector<Item>& items, int begin, int end, std::vector<Node>* nodes,
+                           std::vector<int>* leaf_of);
   static constexpr int kLeafSize = 16;
   /// Median splits: 2^kMaxDepth leaves hold far more points than an index can address.
   static constexpr int kMaxDepth = 40;
