@@ -13,6 +13,7 @@
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/io/cloud_io.h"
 #include "novelty_detection/sim/scene.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -37,13 +38,7 @@ CliRun runCli(const std::string& args, const fs::path& dir) {
   return r;
 }
 
-fs::path tempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("novelty_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path tempDir(const std::string& name) { return test_helpers::freshTempDir("cli", name); }
 
 }  // namespace
 

@@ -6,8 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -16,19 +16,14 @@
 #include <vector>
 
 #include "novelty_detection/io/output_set.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using novelty_detection::OutputSet;
 
 namespace {
 
-fs::path tempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("novelty_set_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path tempDir(const std::string& name) { return test_helpers::freshTempDir("set", name); }
 
 std::string readFile(const fs::path& p) {
   std::ifstream in(p);
@@ -54,7 +49,8 @@ std::vector<std::string> listed(const fs::path& dir) {
 /// Writes a set of `files` files, each holding `run`.
 void writeSet(const fs::path& dir, int run, int files) {
   OutputSet set(dir.string());
-  for (int i = 0; i < files; ++i) set.writeText("f" + std::to_string(i) + ".txt", std::to_string(run));
+  for (int i = 0; i < files; ++i)
+    set.writeText("f" + std::to_string(i) + ".txt", std::to_string(run));
   set.commit();
 }
 

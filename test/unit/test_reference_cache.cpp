@@ -14,19 +14,14 @@
 #include "novelty_detection/io/reference_cache.h"
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/sim/scene.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
 
 namespace {
 
-fs::path tempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("novelty_refcache_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path tempDir(const std::string& name) { return test_helpers::freshTempDir("refcache", name); }
 
 sim::ScenePair scene(unsigned seed) {
   sim::SceneConfig c;

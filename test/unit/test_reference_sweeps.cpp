@@ -13,6 +13,7 @@
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/visibility/visibility.h"
 #include "route_scene.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace novelty_detection;
@@ -46,13 +47,7 @@ CloudFile sweepFile(const Cloud& cloud, const Eigen::Vector3d& origin) {
   return f;
 }
 
-fs::path tempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("novelty_sweeps_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path tempDir(const std::string& name) { return test_helpers::freshTempDir("sweeps", name); }
 
 }  // namespace
 
