@@ -108,7 +108,10 @@ void alignToMap(const Cloud& input, Detection& d) {
 /// changed (the stages so far must then run again).
 bool markSelfReturns(Detection& d) {
   d.disappearance_candidates = d.ref.kept;
-  const SelfReturns self = findSelfReturns(d.ref.cloud, *d.current, d.params.preprocess, d.tau);
+  const NearestNeighbourIndex& reference_points = d.ref.points;
+  const SelfReturns self = findSelfReturns(
+      d.ref.cloud, *d.current, d.params.preprocess, d.tau,
+      [&reference_points](const Eigen::Vector3f& p) { return reference_points.distance(p); });
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

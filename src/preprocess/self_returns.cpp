@@ -77,24 +77,25 @@ constexpr double kFrameRatio = 2.0;
 
 /// Marks the points of `a` (sensor frame, indexed by `own`; a_index into `cloud`) that the
 /// robot's frame explains and the map does not, with d_s the distance to the nearest point of
-/// `b` (the other sweep's sensor frame) and d_m the distance to the nearest point of `other`
-/// (the other sweep, map frame):
+/// `b` (the other sweep's sensor frame) and d_m = other(p), the distance to the nearest point
+/// of the other sweep (map frame):
 ///  - d_s <= tol < d_m: within the common tolerance of the robot's frame, not of the map's;
 ///  - or d_s <= kSpacingFactor * (the point's own sampling spacing) and d_m beyond both the
 ///    novelty distance and kFrameRatio * d_s: a sparsely sampled part of the robot, seen on
 ///    other beams in the two sweeps, that the map cannot explain (it would be a novelty).
 /// Points the map explains within the novelty distance are left to the first rule alone, so
 /// static surfaces keep their share in the sweep.
+template <class MapDistance>
 void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& own,
                  const detail::KnnTree& b, double tol, double novelty_distance, const Cloud& cloud,
-                 const detail::KnnTree& other, std::vector<std::uint8_t>* mask) {
+                 const MapDistance& other, std::vector<std::uint8_t>* mask) {
   // The point's own sampling spacing: its k-th nearest point other than itself (k clamped to
   // the points there are), i.e. the (k+1)-th nearest with itself counted.
   const int k = std::min<int>(kSpacingNeighbours, static_cast<int>(own.size()) - 1) + 1;
   for (std::size_t i = 0; i < a.size(); ++i) {
     // Cheapest test first: a point the map explains within both distances fits neither rule
     // (most of a sweep), whatever the robot's frame says.
-    const double dm = other.nearestDistance(cloud[a_index[i]].getVector3fMap());
+    const double dm = other(cloud[a_index[i]].getVector3fMap());
     if (dm <= tol && dm <= novelty_distance) continue;
     const double ds = b.nearestDistance(a[i]);
     if (!(ds <= tol) && !(ds <= kSpacingFactor * own.kthNearestDistance(a[i], k))) continue;
@@ -129,7 +130,8 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 }
 
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
-                            const PreprocessParams& params, double novelty_distance_m) {
+                            const PreprocessParams& params, double novelty_distance_m,
+                            const NearestDistance& reference_distance) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -160,11 +162,20 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     std::vector<double> spacing = rn_tree.kthNeighbourDistances(1);
     std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
     s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
-    const detail::KnnTree reference_map(pointsAt(reference, rd.unique)),
-        current_map(pointsAt(current, cd.unique));
+    // Repeats of a position do not change a nearest distance: an index over every finite
+    // reference point serves as well as one over the distinct ones.
+    detail::KnnTree reference_map;
+    if (!reference_distance) reference_map = detail::KnnTree(pointsAt(reference, rd.unique));
+    const detail::KnnTree current_map(pointsAt(current, cd.unique));
+    const auto to_reference = [&](const Eigen::Vector3f& p) {
+      return reference_distance ? reference_distance(p) : reference_map.nearestDistance(p);
+    };
+    const auto to_current = [&](const Eigen::Vector3f& p) {
+      return current_map.nearestDistance(p);
+    };
     const double nd = std::max(0.0, novelty_distance_m);
-    markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, reference_map, &s.current);
-    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, current_map, &s.reference);
+    markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, &s.current);
+    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, &s.reference);
   }
   rd.copyToRepeats(&s.reference);
   cd.copyToRepeats(&s.current);

@@ -12,6 +12,7 @@
 
 #include "novelty_detection/alignment/alignment.h"
 #include "novelty_detection/pipeline.h"
+#include "novelty_detection/preprocess/preprocess.h"
 #include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/preprocess/up_direction.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
@@ -221,6 +222,33 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   Cloud unknown = cur;
   unknown.sensor_origin_.setZero();
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
+}
+
+// The map-frame distances may come from an index the caller keeps over every finite
+// reference point (repeats included, as a reference model has it): the marks are the same
+// as with the index built over the distinct points.
+TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  std::vector<int> body_ref, body_cur;
+  Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
+  const Cloud cur =
+      sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur,
+                         {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
+  // Every tenth reference point repeated, one missing.
+  for (std::size_t i = 0, n = ref.size(); i < n; i += 10) ref.push_back(ref[i]);
+  ref.push_back(PointT(NAN, NAN, NAN));
+  ref.width = ref.size(), ref.height = 1;
+  NearestNeighbourIndex index;
+  index.build(ref, finiteIndices(ref));
+  PreprocessParams p;
+  const SelfReturns built = findSelfReturns(ref, cur, p, 0.05);
+  const SelfReturns kept = findSelfReturns(
+      ref, cur, p, 0.05, [&index](const Eigen::Vector3f& q) { return index.distance(q); });
+  ASSERT_TRUE(kept.checked);
+  EXPECT_GE(markedAmong(kept.current, body_cur), body_cur.size() * 95 / 100);
+  EXPECT_EQ(kept.current, built.current);
+  EXPECT_EQ(kept.reference, built.reference);
+  EXPECT_EQ(kept.current_count, built.current_count);
 }
 
 // A cloud stored twice (every return repeated, as some recorded scans are) is the same

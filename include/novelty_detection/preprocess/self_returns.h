@@ -27,6 +27,7 @@
 #include <Eigen/Geometry>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -58,7 +59,13 @@ Eigen::AlignedBox3f parseBodyBox(const std::string& text);
 /// of the relative rotation): a pure pitch or roll gives 0.
 double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& to);
 
+/// Distance from a map-frame point to the nearest point of a cloud (infinite when it has none).
+using NearestDistance = std::function<double(const Eigen::Vector3f&)>;
+
+/// `reference_distance` (optional): the distance to the nearest finite reference point, when
+/// the caller keeps an index of them (a reference model); else one is built here.
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
-                            const PreprocessParams& params, double novelty_distance_m = 0.0);
+                            const PreprocessParams& params, double novelty_distance_m = 0.0,
+                            const NearestDistance& reference_distance = {});
 
 }  // namespace novelty_detection
