@@ -44,14 +44,16 @@ Eigen::Vector3f point3f(const PointT& p) { return Eigen::Vector3f(p.x, p.y, p.z)
 /// the map does not explain are fitted by EM on the fine clusters farther than tau from the
 /// map; then the weights of the joint mixture are re-estimated on the whole sweep.
 Gmm fitCurrent(const GmmParams& params, const WeightedPoints& reps, const Gmm& reference,
-               const WeightedPoints& far) {
+               const WeightedPoints& far, int threads) {
   GmmFitter fitter(params);
+  fitter.setThreads(threads);
   if (!params.current_from_reference || reference.empty()) return fitter.fit(reps);
   Gmm init = reference;
   if (far.size() > 0 && params.max_extra_components > 0) {
     GmmParams extra_params = params;
     extra_params.max_components = params.max_extra_components;
-    const GmmFitter extra_fitter(extra_params);
+    GmmFitter extra_fitter(extra_params);
+    extra_fitter.setThreads(threads);
     const Gmm extra = extra_fitter.fit(far);
     for (const auto& g : extra.components) init.components.push_back(g);
   }
@@ -177,7 +179,8 @@ void measureDistancesToMap(Detection& d) {
 }
 
 void fitCurrentMixture(Detection& d) {
-  d.result.current_gmm = fitCurrent(d.params.gmm, d.s.reps, d.ref.gmm, d.far);
+  d.result.current_gmm =
+      fitCurrent(d.params.gmm, d.s.reps, d.ref.gmm, d.far, d.params.compute.resolved());
   d.timer.lap("gmm");
 }
 

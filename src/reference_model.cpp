@@ -143,8 +143,12 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     throw std::invalid_argument("reference cloud has " + std::to_string(s.pre.kept.size()) +
                                 " usable points after pre-processing; need at least 4");
   }
-  if (!summary) model->gmm = GmmFitter(params.gmm).fit(s.reps);
   const int threads = params.compute.resolved();
+  if (!summary) {
+    GmmFitter fitter(params.gmm);
+    fitter.setThreads(threads);
+    model->gmm = fitter.fit(s.reps);
+  }
   model->points.build(reference, s.pre.finite, threads);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
   const RangeImage::Config image_config = rangeImageConfig(params.visibility);

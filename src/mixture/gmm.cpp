@@ -7,10 +7,19 @@
 #include <random>
 #include <stdexcept>
 
+#include "common/parallel.h"
+
 namespace novelty_detection {
 namespace {
 
 constexpr double kLog2Pi = 1.8378770664093453;
+
+/// Points per block of an E-step: blocks are fixed, whatever the thread count, so that
+/// every entry is computed the same way.
+constexpr Eigen::Index kPointBlock = 1024;
+
+/// Number of kPointBlock blocks over n points.
+int pointBlocks(Eigen::Index n) { return static_cast<int>((n + kPointBlock - 1) / kPointBlock); }
 
 void checkData(const WeightedPoints& data) {
   if (data.weights.size() && data.weights.size() != data.points.cols()) {
@@ -37,29 +46,33 @@ constexpr double kNegligibleLogRatio = -50.0;
 /// column's log-sum-exp. A point is near a few of the K Gaussians: only the entries within
 /// kNegligibleLogRatio of the column's largest cost an exp (the hot loop of EM), the rest
 /// are exactly 0. A column of -inf (every weight zero) becomes uniform with lse -inf.
-void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse) {
+/// Columns are independent: blocks of them run on up to `threads` threads.
+void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse, int threads) {
   lse.resize(a.cols());
   const Eigen::Index rows = a.rows();
   const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, rows));
-  for (Eigen::Index n = 0; n < a.cols(); ++n) {
-    double* col = a.col(n).data();
-    double m = -std::numeric_limits<double>::infinity();
-    for (Eigen::Index k = 0; k < rows; ++k) m = std::max(m, col[k]);
-    if (!std::isfinite(m)) {
-      lse[n] = m;
-      std::fill(col, col + rows, uniform);
-      continue;
+  detail::parallelFor(pointBlocks(a.cols()), threads, [&](int b) {
+    const Eigen::Index end = std::min(a.cols(), (b + 1) * kPointBlock);
+    for (Eigen::Index n = b * kPointBlock; n < end; ++n) {
+      double* col = a.col(n).data();
+      double m = -std::numeric_limits<double>::infinity();
+      for (Eigen::Index k = 0; k < rows; ++k) m = std::max(m, col[k]);
+      if (!std::isfinite(m)) {
+        lse[n] = m;
+        std::fill(col, col + rows, uniform);
+        continue;
+      }
+      double sum = 0.0;
+      for (Eigen::Index k = 0; k < rows; ++k) {
+        const double v = col[k] - m;
+        col[k] = v < kNegligibleLogRatio ? 0.0 : std::exp(v);
+        sum += col[k];
+      }
+      const double inv = 1.0 / sum;
+      for (Eigen::Index k = 0; k < rows; ++k) col[k] *= inv;
+      lse[n] = m + std::log(sum);
     }
-    double sum = 0.0;
-    for (Eigen::Index k = 0; k < rows; ++k) {
-      const double v = col[k] - m;
-      col[k] = v < kNegligibleLogRatio ? 0.0 : std::exp(v);
-      sum += col[k];
-    }
-    const double inv = 1.0 / sum;
-    for (Eigen::Index k = 0; k < rows; ++k) col[k] *= inv;
-    lse[n] = m + std::log(sum);
-  }
+  });
 }
 
 /// One M-step from responsibilities R (K x N). Returns the new mixture (empty comps dropped).
@@ -96,9 +109,11 @@ double WeightedPoints::totalWeight() const {
   return weights.size() ? weights.sum() : static_cast<double>(points.cols());
 }
 
-Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points) {
+Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads) {
   const Eigen::Index k_count = static_cast<Eigen::Index>(gmm.size());
-  Eigen::MatrixXd out(k_count, points.cols());
+  // Per Gaussian: the Cholesky factor L of its covariance and log(pi) - log|2 pi Sigma| / 2.
+  std::vector<Eigen::Matrix3d> factor(static_cast<std::size_t>(k_count));
+  std::vector<double> offset(static_cast<std::size_t>(k_count));
   for (Eigen::Index k = 0; k < k_count; ++k) {
     const Gaussian& g = gmm.components[k];
     Eigen::LLT<Eigen::Matrix3d> llt(g.cov);
@@ -108,23 +123,31 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
       cov.diagonal().array() += 1e-9 + std::abs(cov.diagonal().minCoeff());
       llt.compute(cov);
     }
-    const Eigen::Matrix3d l = llt.matrixL();
-    const double log_det = 2.0 * l.diagonal().array().log().sum();
-    Eigen::Matrix3Xd d = points.colwise() - g.mean;
-    l.triangularView<Eigen::Lower>().solveInPlace(d);
-    const double c =
-        (g.weight > 0 ? std::log(g.weight) : -std::numeric_limits<double>::infinity()) -
-        0.5 * (3.0 * kLog2Pi + log_det);
-    out.row(k) = (c - 0.5 * d.colwise().squaredNorm().array()).matrix();
+    factor[k] = llt.matrixL();
+    const double log_det = 2.0 * factor[k].diagonal().array().log().sum();
+    offset[k] = (g.weight > 0 ? std::log(g.weight) : -std::numeric_limits<double>::infinity()) -
+                0.5 * (3.0 * kLog2Pi + log_det);
   }
+  Eigen::MatrixXd out(k_count, points.cols());
+  detail::parallelFor(pointBlocks(points.cols()), threads, [&](int b) {
+    const Eigen::Index begin = b * kPointBlock;
+    const Eigen::Index len = std::min(points.cols(), begin + kPointBlock) - begin;
+    Eigen::Matrix3Xd d(3, len);
+    for (Eigen::Index k = 0; k < k_count; ++k) {
+      d = points.middleCols(begin, len).colwise() - gmm.components[k].mean;
+      factor[k].triangularView<Eigen::Lower>().solveInPlace(d);
+      out.row(k).segment(begin, len) =
+          (offset[k] - 0.5 * d.colwise().squaredNorm().array()).matrix();
+    }
+  });
   return out;
 }
 
 Eigen::MatrixXd responsibilities(const Gmm& gmm, const Eigen::Matrix3Xd& points,
-                                 Eigen::VectorXd* log_likelihood) {
-  Eigen::MatrixXd lp = logWeightedDensities(gmm, points);
+                                 Eigen::VectorXd* log_likelihood, int threads) {
+  Eigen::MatrixXd lp = logWeightedDensities(gmm, points, threads);
   Eigen::VectorXd lse;
-  softmaxCols(lp, lse);
+  softmaxCols(lp, lse, threads);
   if (log_likelihood) *log_likelihood = std::move(lse);
   return lp;
 }
@@ -245,7 +268,7 @@ Gmm GmmFitter::fitFrom(const WeightedPoints& data, const Gmm& init, EmStats* sta
   double prev = -std::numeric_limits<double>::infinity();
   for (int it = 0; it < params_.max_iterations; ++it) {
     Eigen::VectorXd ll;
-    const Eigen::MatrixXd resp = responsibilities(gmm, data.points, &ll);
+    const Eigen::MatrixXd resp = responsibilities(gmm, data.points, &ll, threads_);
     st.log_likelihood = w.dot(ll) / total;
     st.iterations = it + 1;
     if (st.log_likelihood - prev < params_.tolerance) {
@@ -274,7 +297,7 @@ Gmm GmmFitter::fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* 
   // log N(x_n | k) does not change: compute it once, then iterate on the weights only.
   Gmm unit = init;
   for (auto& g : unit.components) g.weight = 1.0;
-  const Eigen::MatrixXd log_density = logWeightedDensities(unit, data.points);
+  const Eigen::MatrixXd log_density = logWeightedDensities(unit, data.points, threads_);
   Eigen::VectorXd log_pi(gmm.size());
   double prev = -std::numeric_limits<double>::infinity();
   for (int it = 0; it < params_.max_iterations; ++it) {
@@ -283,7 +306,7 @@ Gmm GmmFitter::fitWeights(const WeightedPoints& data, const Gmm& init, EmStats* 
                                                : -std::numeric_limits<double>::infinity();
     Eigen::MatrixXd lp = log_density.colwise() + log_pi;
     Eigen::VectorXd lse;
-    softmaxCols(lp, lse);
+    softmaxCols(lp, lse, threads_);
     st.log_likelihood = w.dot(lse) / total;
     st.iterations = it + 1;
     if (st.log_likelihood - prev < params_.tolerance) {

@@ -13,9 +13,10 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   NoveltyCandidates out;
   if (novel.empty()) return out;
   const double threshold = params.segmentation.posterior_threshold;
+  const int threads = params.compute.resolved();
   // Posteriors of the representatives first: only points of clusters with some novel
   // posterior mass are evaluated one by one (a small fraction of the sweep).
-  const Eigen::MatrixXd rr = responsibilities(theta, reps.points);
+  const Eigen::MatrixXd rr = responsibilities(theta, reps.points, nullptr, threads);
   std::vector<char> cluster_novel(static_cast<std::size_t>(reps.size()), 0);
   for (Eigen::Index c = 0; c < reps.size(); ++c) {
     double mass = 0.0;
@@ -30,7 +31,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   Eigen::Matrix3Xd x(3, todo.size());
   for (std::size_t i = 0; i < todo.size(); ++i)
     x.col(static_cast<Eigen::Index>(i)) = current[todo[i]].getVector3fMap().cast<double>();
-  const Eigen::MatrixXd r = responsibilities(theta, x);
+  const Eigen::MatrixXd r = responsibilities(theta, x, nullptr, threads);
   Indices far_points;
   std::vector<int> far_owner;
   for (std::size_t i = 0; i < todo.size(); ++i) {
@@ -52,7 +53,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   for (std::size_t i = 0; i < far_points.size(); ++i)
     xf.col(static_cast<Eigen::Index>(i)) = current[far_points[i]].getVector3fMap().cast<double>();
   Eigen::VectorXd ll;
-  if (!far_points.empty()) responsibilities(*reference.gmm, xf, &ll);
+  if (!far_points.empty()) responsibilities(*reference.gmm, xf, &ll, threads);
   // The fused rule of visibility.h (novelCandidate): free space -> novel; space the
   // reference never observed -> newly visible, unless the map's mixture cannot explain it.
   const bool use_visibility = params.segmentation.visibility_check && reference.visibility &&

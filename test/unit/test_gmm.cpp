@@ -197,3 +197,43 @@ TEST(Gmm, ResponsibilitiesMatchDirectDensities) {
     EXPECT_DOUBLE_EQ(r.col(i).sum(), 1.0);
   }
 }
+
+// The E-step runs over blocks of points on several threads: responsibilities,
+// log-likelihoods and whole EM fits are the same, bit for bit, for any thread count, and
+// the blocks join where they should (points on both sides of a block boundary match the
+// one-thread values).
+TEST(Gmm, EStepIsTheSameOnAnyNumberOfThreads) {
+  const Gmm truth = truthMixture();
+  const WeightedPoints data = sampleMixture(truth, 5000, 17);  // five blocks
+  Eigen::VectorXd ll1;
+  const Eigen::MatrixXd r1 = responsibilities(truth, data.points, &ll1, 1);
+  ASSERT_EQ(r1.cols(), 5000);
+  for (int threads : {2, 3}) {
+    Eigen::VectorXd ll;
+    const Eigen::MatrixXd r = responsibilities(truth, data.points, &ll, threads);
+    EXPECT_TRUE(r == r1) << threads << " threads";
+    EXPECT_TRUE(ll == ll1) << threads << " threads";
+    EXPECT_TRUE(logWeightedDensities(truth, data.points, threads) ==
+                logWeightedDensities(truth, data.points, 1));
+  }
+  // A point alone gets the value it gets among the others.
+  for (int i : {0, 1023, 1024, 4999}) {
+    Eigen::VectorXd ll;
+    const Eigen::MatrixXd r = responsibilities(truth, data.points.col(i), &ll, 2);
+    EXPECT_NEAR(ll[0], ll1[i], 1e-12) << "point " << i;
+    EXPECT_NEAR((r.col(0) - r1.col(i)).cwiseAbs().maxCoeff(), 0.0, 1e-12) << "point " << i;
+  }
+  GmmParams params;
+  GmmFitter one(params), three(params);
+  three.setThreads(3);
+  const Gmm a = one.fit(data, 3), b = three.fit(data, 3);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a.components[k].weight, b.components[k].weight);
+    EXPECT_TRUE(a.components[k].mean == b.components[k].mean);
+    EXPECT_TRUE(a.components[k].cov == b.components[k].cov);
+  }
+  const Gmm wa = one.fitWeights(data, truth), wb = three.fitWeights(data, truth);
+  for (std::size_t k = 0; k < wa.size(); ++k)
+    EXPECT_EQ(wa.components[k].weight, wb.components[k].weight);
+}

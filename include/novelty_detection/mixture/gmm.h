@@ -69,16 +69,22 @@ class GmmFitter {
   /// Seeded k-means++ labels with `lloyd_iterations` refinement steps.
   std::vector<int> kmeansLabels(const WeightedPoints& data, int k, int lloyd_iterations = 5) const;
 
+  /// Threads for the E-steps (blocks of points); the result is the same for any count.
+  void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
+
  private:
   GmmParams params_;
+  int threads_ = 1;
 };
 
-/// log(pi_k) + log N(x_n | k) as a K x N matrix.
-Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points);
+/// log(pi_k) + log N(x_n | k) as a K x N matrix. Points are taken in fixed blocks, the
+/// blocks on up to `threads` threads: the result is the same for any count.
+Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points,
+                                     int threads = 1);
 
 /// Posterior responsibilities r_nk (K x N, columns sum to 1), via log-sum-exp.
-/// `log_likelihood` (optional) receives log p(x_n) per point.
+/// `log_likelihood` (optional) receives log p(x_n) per point. Threads as above.
 Eigen::MatrixXd responsibilities(const Gmm& gmm, const Eigen::Matrix3Xd& points,
-                                 Eigen::VectorXd* log_likelihood = nullptr);
+                                 Eigen::VectorXd* log_likelihood = nullptr, int threads = 1);
 
 }  // namespace novelty_detection
