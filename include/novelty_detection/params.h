@@ -408,6 +408,7 @@ struct SuperquadricParams {
   bool bounded_fit = true;
   double outside_weight = 1.0;
   double support_weight = 1.0;
+  double surface_weight = 1.0;
   double support_fraction = 0.5;
   bool upright = true;
   double mirror_max_free = 0.1;
@@ -458,6 +459,11 @@ struct SuperquadricParams {
       {"weight of the floor support of a standing object, relative to all its points moved by "
        "the same distance; 0: no support",
        0.0, 1000.0});
+    f("surface_weight", surface_weight,
+      {"weight of each point's first-order distance to the surface, added to eq. 3's residual in "
+       "a bounded fit: eq. 3's volume factor lets a fit cut through its points and shrink, the "
+       "distance alone lets it grow; 0: eq. 3 alone",
+       0.0, 100.0});
     f("support_fraction", support_fraction,
       {"an object stands on the floor when its lowest point lies within the floor band plus "
        "support_fraction times its own height above the floor",

@@ -210,7 +210,16 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
                                loss, a, e, w, t);
     }
   }
-  if (bounded && bounds_) addBounds(*bounds_, points, standing, r0, c0, a, e, w, t, &problem);
+  if (bounded && bounds_) {
+    if (bounds_->params.surface_weight > 0.0) {
+      Points3d q(points.size());
+      for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
+      // One block for all points (a robust loss, if any, acts on eq. 3's residuals only).
+      problem.AddResidualBlock(new SuperquadricSurfaceResidual(q, bounds_->params.surface_weight),
+                               nullptr, a, e, w, t);
+    }
+    addBounds(*bounds_, points, standing, r0, c0, a, e, w, t, &problem);
+  }
   if (up_axis >= 0) {
     problem.AddParameterBlock(w, 3);
     problem.SetManifold(w, new ceres::SubsetManifold(3, {(up_axis + 1) % 3, (up_axis + 2) % 3}));

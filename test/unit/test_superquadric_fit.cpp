@@ -2,6 +2,8 @@
 // parameters: full and one-sided noisy views, degenerate inputs, multi-scale refinement.
 #include <gtest/gtest.h>
 
+#include <ceres/rotation.h>
+
 #include <cmath>
 #include <memory>
 #include <random>
@@ -193,6 +195,85 @@ TEST(SuperquadricCost, AnalyticJacobianEqualsAutodiff) {
         EXPECT_NEAR(j_an[b][i], j_ad[b][i], 1e-7 * (1.0 + std::abs(j_ad[b][i])))
             << "block " << b << " index " << i << " trial " << trial;
       }
+    }
+  }
+}
+
+namespace {
+
+/// The first-order surface distance written with Jets (the reference for the analytic one):
+/// (1 - exp(-e1 log F / 2)) / (e1/2 |grad_p log F|), the point p = Exp(w)^T (q - t).
+struct SurfaceDistanceAutodiff {
+  explicit SurfaceDistanceAutodiff(const Eigen::Vector3d& q) : q_(q) {}
+  template <class T>
+  bool operator()(const T* const a, const T* const e, const T* const w, const T* const t,
+                  T* residual) const {
+    using std::exp;
+    using std::log;
+    using std::sqrt;
+    const T d[3] = {T(q_.x()) - t[0], T(q_.y()) - t[1], T(q_.z()) - t[2]};
+    const T minus_w[3] = {-w[0], -w[1], -w[2]};
+    T p[3];
+    ceres::AngleAxisRotatePoint(minus_w, d, p);
+    const T tiny(kSqTinySquared);
+    const T lx = log(p[0] * p[0] / (a[0] * a[0]) + tiny) / e[1];
+    const T ly = log(p[1] * p[1] / (a[1] * a[1]) + tiny) / e[1];
+    const T lz = log(p[2] * p[2] / (a[2] * a[2]) + tiny) / e[0];
+    const T lxy = logSumExp(lx, ly);
+    const T la = (e[1] / e[0]) * lxy;
+    const T l = logSumExp(la, lz);
+    const T wa = exp(la - l), wb = exp(lz - l), wx = exp(lx - lxy), wy = exp(ly - lxy);
+    const T vx = wa * wx * p[0] / (p[0] * p[0] + tiny * a[0] * a[0]);
+    const T vy = wa * wy * p[1] / (p[1] * p[1] + tiny * a[1] * a[1]);
+    const T vz = wb * p[2] / (p[2] * p[2] + tiny * a[2] * a[2]);
+    residual[0] = (T(1.0) - exp(T(-0.5) * e[0] * l)) / sqrt(vx * vx + vy * vy + vz * vz + T(1e-24));
+    return true;
+  }
+  Eigen::Vector3d q_;
+};
+
+}  // namespace
+
+// The analytic first-order surface distance against the same formula differentiated by
+// Jets, from round to box-like and pinched shapes, points inside and outside; its value is
+// the library's surfaceDistance() with the sign of the side.
+TEST(SuperquadricCost, SurfaceDistanceJacobianEqualsAutodiff) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 300; ++trial) {
+    const Eigen::Vector3d q(0.6 * u(rng), 0.6 * u(rng), 0.6 * u(rng));
+    double a[3] = {0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng)};
+    double e[2] = {1.0 + 0.9 * u(rng), 1.0 + 0.9 * u(rng)};
+    const double scale = trial % 4 == 0 ? 1e-6 : 1.5;
+    double w[3] = {scale * u(rng), scale * u(rng), scale * u(rng)};
+    double t[3] = {0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
+    const double* params[4] = {a, e, w, t};
+    std::unique_ptr<ceres::CostFunction> ad(
+        new ceres::AutoDiffCostFunction<SurfaceDistanceAutodiff, 1, 3, 2, 3, 3>(
+            new SurfaceDistanceAutodiff(q)));
+    const SuperquadricSurfaceResidual an({q}, 2.0);
+    double r_ad, r_an, j_ad[4][3], j_an[4][3];
+    double* jac_ad[4] = {j_ad[0], j_ad[1], j_ad[2], j_ad[3]};
+    double* jac_an[4] = {j_an[0], j_an[1], j_an[2], j_an[3]};
+    ASSERT_TRUE(ad->Evaluate(params, &r_ad, jac_ad));
+    ASSERT_TRUE(an.Evaluate(params, &r_an, jac_an));
+    EXPECT_NEAR(r_an, 2.0 * r_ad, 1e-9 * (1.0 + std::abs(r_ad)));
+    const int sizes[4] = {3, 2, 3, 3};
+    for (int b = 0; b < 4; ++b) {
+      for (int i = 0; i < sizes[b]; ++i) {
+        EXPECT_NEAR(j_an[b][i], 2.0 * j_ad[b][i], 1e-6 * (1.0 + std::abs(j_ad[b][i])))
+            << "block " << b << " index " << i << " trial " << trial;
+      }
+    }
+    if (scale < 1.0) {
+      Superquadric sq;
+      sq.a = Eigen::Vector3d(a[0], a[1], a[2]);
+      sq.e1 = e[0];
+      sq.e2 = e[1];
+      sq.position = Eigen::Vector3d(t[0], t[1], t[2]);
+      const double side = insideOutside(sq, q) < 1.0 ? -1.0 : 1.0;
+      EXPECT_NEAR(r_an / 2.0, side * surfaceDistance(sq, q), 1e-6 * (1.0 + std::abs(r_an)))
+          << "trial " << trial;
     }
   }
 }

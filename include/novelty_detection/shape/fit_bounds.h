@@ -48,7 +48,7 @@ struct FitBounds {
   /// Points this close to the floor count as on it (ground removal's band) [m].
   double floor_band_m = 0.0;
   /// The settings the bounds use: support_fraction, outside_weight, support_weight,
-  /// upright, mirror_max_free.
+  /// surface_weight, upright, mirror_max_free.
   SuperquadricParams params;
   /// The sweep seen from its own origin (mirroredHiddenSide(), gapMiddles()); null: unknown.
   const RangeImage* view = nullptr;

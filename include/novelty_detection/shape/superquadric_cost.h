@@ -91,6 +91,24 @@ class SuperquadricBatchResidual : public ceres::CostFunction {
   mutable bool cached_ = false;
 };
 
+/// The first-order surface distance of each point, (1 - F^(-e1/2)) / |grad F^(e1/2) / F^(e1/2)|
+/// (Taubin's gradient-normalised distance of the level set F^(e1/2) = 1: the distance to
+/// the surface to first order, negative inside), times `weight`, with analytic derivatives.
+/// Unlike eq. 3 it carries no volume factor: added to eq. 3's residuals it pulls the surface
+/// onto the points the volume factor lets a fit cut through.
+class SuperquadricSurfaceResidual : public ceres::CostFunction {
+ public:
+  /// `q`: the points in the start model's frame.
+  SuperquadricSurfaceResidual(const std::vector<Eigen::Vector3d>& q, double weight);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  std::vector<Eigen::Vector3d> q_;
+  double weight_;
+};
+
 /// The hinge on outside points (fit_bounds.h): per point weight * max(0, -r), r eq. 3's
 /// residual (negative inside the superquadric), with its derivatives; zero and flat outside.
 class SuperquadricOutsideResidual : public ceres::CostFunction {

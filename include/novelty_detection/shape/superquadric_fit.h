@@ -88,8 +88,10 @@ class SuperquadricFitter {
   const SuperquadricParams& params() const { return params_; }
 
   /// Bounds (fit_bounds.h) that refine() and the final refinement of fit() add to the
-  /// points' cost: the hinge on outside points and, when the fitted points stand on the
-  /// floor, the support. The bounds must outlive the fits; null: none (the default).
+  /// points' cost: each point's first-order surface distance beside its eq. 3 residual
+  /// (SuperquadricSurfaceResidual, weight surface_weight), the hinge on outside points and,
+  /// when the fitted points stand on the floor, the support. The bounds must outlive the
+  /// fits; null: none (the default).
   void setBounds(const FitBounds* bounds) { bounds_ = bounds; }
 
  private:
