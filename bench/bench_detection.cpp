@@ -190,7 +190,8 @@ BENCHMARK(BM_Suite)
     ->Iterations(1)
     ->Unit(benchmark::kSecond);
 
-/// Shapes over the 30-scene suite of seed range(0), superquadric/bounded_fit = range(1):
+/// Shapes over the 30-scene suite of seed range(0), superquadric/bounded_fit = range(1),
+/// superquadric/surface_weight its default when range(2) is 1, else 0 (eq. 3 alone):
 /// medians of the superquadric stage and of the whole detection per scene [ms], and what
 /// they achieved: scene success, mean F1, each kind's mean semi-axis error [mm] (one-part
 /// fits) and mean surface error over the true shape's floor (evaluate's shapes by kind).
@@ -198,6 +199,7 @@ void BM_SuiteShapes(benchmark::State& state) {
   const auto seed = static_cast<std::uint64_t>(state.range(0));
   Params p;
   p.superquadric.bounded_fit = state.range(1) != 0;
+  if (state.range(2) == 0) p.superquadric.surface_weight = 0.0;
   std::vector<sim::ScenePair> scenes;
   for (int i = 0; i < 30; ++i)
     scenes.push_back(sim::generateScenePair(sim::suiteSceneConfig(i, seed)));
@@ -251,7 +253,12 @@ void BM_SuiteShapes(benchmark::State& state) {
     state.counters[k.type + "_over_floor"] = k.ratio();
   }
 }
-BENCHMARK(BM_SuiteShapes)->Args({1, 0})->Args({1, 1})->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_SuiteShapes)
+    ->Args({1, 0, 1})
+    ->Args({1, 1, 0})
+    ->Args({1, 1, 1})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
 
 }  // namespace
 

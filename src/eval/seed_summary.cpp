@@ -38,11 +38,14 @@ std::string percent(double v) {
   return b;
 }
 
-std::string fixed3(double v) {
+std::string fixedN(double v, int digits) {
   char b[32];
-  std::snprintf(b, sizeof b, "%.3f", v);
+  std::snprintf(b, sizeof b, "%.*f", digits, v);
   return b;
 }
+std::string fixed1(double v) { return fixedN(v, 1); }
+std::string fixed2(double v) { return fixedN(v, 2); }
+std::string fixed3(double v) { return fixedN(v, 3); }
 
 }  // namespace
 
@@ -90,9 +93,33 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
         if (rate < it->worst_rate) it->worst_rate = rate, it->worst_seed = seed;
       }
     }
+    if (summary.contains("shapes_by_kind") && summary["shapes_by_kind"].is_array()) {
+      for (const auto& k : summary["shapes_by_kind"]) {
+        const std::string type = field<std::string>(k, "type", path);
+        auto it = std::find_if(out.shapes.begin(), out.shapes.end(),
+                               [&](const SeedShapeSummary& x) { return x.type == type; });
+        if (it == out.shapes.end()) {
+          it = out.shapes.insert(out.shapes.end(), SeedShapeSummary{});
+          it->type = type;
+        }
+        // Sums here, means below.
+        const int objects = field<int>(k, "objects", path);
+        const int axis_objects = k.value("semi_axis_objects", 0);
+        it->objects += objects;
+        it->surface_m += objects * field<double>(k, "surface_error_m", path);
+        it->floor_m += objects * field<double>(k, "floor_m", path);
+        it->axis_objects += axis_objects;
+        if (axis_objects > 0)
+          it->semi_axis_m += axis_objects * field<double>(k, "semi_axis_error_m", path);
+      }
+    }
     out.objects_found += field<long>(summary, "objects_found", path);
     out.objects_total += field<long>(summary, "objects_total", path);
     out.false_segments += field<long>(summary, "false_segments", path);
+  }
+  for (SeedShapeSummary& k : out.shapes) {
+    if (k.objects > 0) k.surface_m /= k.objects, k.floor_m /= k.objects;
+    if (k.axis_objects > 0) k.semi_axis_m /= k.axis_objects;
   }
   // "all" last.
   std::stable_partition(rows.begin(), rows.end(), [](const auto& r) { return r.first != "all"; });
@@ -142,6 +169,20 @@ std::string seedSummaryMarkdown(const SeedSummary& summary) {
             " |\n";
     }
   }
+  if (!summary.shapes.empty()) {
+    md +=
+        "\n| object type | objects | surface error | floor | error / floor | semi-axis error "
+        "(one-part fits) |\n|---|---:|---:|---:|---:|---:|\n";
+    for (const SeedShapeSummary& k : summary.shapes) {
+      const auto mm = [](double m) { return fixed1(1000.0 * m) + " mm"; };
+      md += "| " + k.type + " | " + std::to_string(k.objects) + " | " + mm(k.surface_m) + " | " +
+            mm(k.floor_m) + " | " + (k.floor_m > 0.0 ? fixed2(k.surface_m / k.floor_m) : "-") +
+            " | " +
+            (k.axis_objects > 0 ? mm(k.semi_axis_m) + " (" + std::to_string(k.axis_objects) + ")"
+                                : std::string("-")) +
+            " |\n";
+    }
+  }
   return md;
 }
 
@@ -170,6 +211,14 @@ std::string seedSummaryJson(const SeedSummary& summary) {
                           {"found", k.found},
                           {"worst_seed", k.worst_seed},
                           {"worst_rate", k.worst_rate}});
+  j["shapes_by_kind"] = nlohmann::json::array();
+  for (const SeedShapeSummary& k : summary.shapes)
+    j["shapes_by_kind"].push_back({{"type", k.type},
+                                   {"objects", k.objects},
+                                   {"surface_error_m", k.surface_m},
+                                   {"floor_m", k.floor_m},
+                                   {"semi_axis_objects", k.axis_objects},
+                                   {"semi_axis_error_m", k.semi_axis_m}});
   return j.dump(2) + "\n";
 }
 

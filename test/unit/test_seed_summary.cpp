@@ -81,6 +81,37 @@ TEST(SeedSummary, MeansOverSeedsAndTheWorstSeed) {
   fs::remove_all(dir);
 }
 
+// Shapes per object type are pooled over the seeds: each found object weighs the same, so
+// a seed with more boxes counts more; a seed without one-part fits adds none.
+TEST(SeedSummary, ShapesArePooledOverTheSeeds) {
+  const fs::path dir = tempDir();
+  auto file = [&](const std::string& name, int objects, double surface, double floor,
+                  int axis_objects, double axis) {
+    const fs::path p = dir / name;
+    std::ofstream(p) << "{\"groups\": [{\"group\": \"all\", \"scenes\": 1, "
+                        "\"success_rate\": 1, \"mean_f1\": 1}], \"summary\": "
+                        "{\"objects_found\": 1, \"objects_total\": 1, \"false_segments\": 0, "
+                        "\"shapes_by_kind\": [{\"type\": \"box\", \"objects\": "
+                     << objects << ", \"surface_error_m\": " << surface
+                     << ", \"floor_m\": " << floor << ", \"semi_axis_objects\": " << axis_objects
+                     << ", \"semi_axis_error_m\": " << axis << "}]}}";
+    return p.string();
+  };
+  const SeedSummary s = summarizeSeeds({{"1", file("a.json", 3, 0.020, 0.010, 2, 0.030)},
+                                        {"2", file("b.json", 1, 0.040, 0.030, 0, 0.0)}});
+  ASSERT_EQ(s.shapes.size(), 1u);
+  EXPECT_EQ(s.shapes[0].objects, 4);
+  EXPECT_NEAR(s.shapes[0].surface_m, (3 * 0.020 + 0.040) / 4, 1e-12);
+  EXPECT_NEAR(s.shapes[0].floor_m, (3 * 0.010 + 0.030) / 4, 1e-12);
+  EXPECT_EQ(s.shapes[0].axis_objects, 2);
+  EXPECT_NEAR(s.shapes[0].semi_axis_m, 0.030, 1e-12);
+  const std::string md = seedSummaryMarkdown(s);
+  EXPECT_NE(md.find("| box | 4 | 25.0 mm | 15.0 mm | 1.67 | 30.0 mm (2) |"), std::string::npos)
+      << md;
+  EXPECT_NE(seedSummaryJson(s).find("\"semi_axis_objects\": 2"), std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST(SeedSummary, BadInputIsNamed) {
   const fs::path dir = tempDir();
   const std::string good = scores(dir, "a.json", 1.0, 0.9, 0.97, 0.93, 59);

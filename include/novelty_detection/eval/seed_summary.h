@@ -4,7 +4,8 @@
 //
 // Input: the `evaluate --suite ... --json` output of each seed (its "groups": scene group,
 // scenes, success_rate, mean_f1, and "summary": objects_found / objects_total, false
-// segments; "kinds", optional: per object type, objects and found). Means are over seeds (each seed
+// segments, and optionally "shapes_by_kind"; "kinds", optional: per object type, objects and
+// found). Means are over seeds (each seed
 // weighs the same); the worst seed is the one with the lowest success rate in the group (ties:
 // lowest F1, then the first listed).
 #pragma once
@@ -33,10 +34,22 @@ struct SeedKindSummary {
   double worst_rate = 0.0;     ///< that share
 };
 
+/// Superquadric errors of one object type pooled over the seeds (from each file's
+/// summary.shapes_by_kind, when present): every found object weighs the same, whatever its
+/// seed.
+struct SeedShapeSummary {
+  std::string type;
+  int objects = 0;                        ///< found objects with a shape, over the seeds
+  double surface_m = 0.0, floor_m = 0.0;  ///< mean surface error, mean floor
+  int axis_objects = 0;                   ///< one-part objects fitted with one part
+  double semi_axis_m = 0.0;               ///< their mean semi-axis error
+};
+
 struct SeedSummary {
   std::vector<std::string> seeds;        ///< as given
   std::vector<SeedGroupSummary> groups;  ///< in first-seen order, "all" last
   std::vector<SeedKindSummary> kinds;    ///< in first-seen order
+  std::vector<SeedShapeSummary> shapes;  ///< in first-seen order
   long objects_found = 0, objects_total = 0, false_segments = 0;  ///< summed over seeds
 };
 
@@ -46,7 +59,8 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
 
 /// A Markdown table: group, seeds, scenes, mean success, worst seed (its success and F1),
 /// mean F1, lowest F1; then one line of objects found and false segments; then, when the
-/// files give them, objects found per type (all seeds, and the worst seed).
+/// files give them, objects found per type (all seeds, and the worst seed) and the shapes
+/// per type pooled over the seeds.
 std::string seedSummaryMarkdown(const SeedSummary& summary);
 /// The same as one JSON object.
 std::string seedSummaryJson(const SeedSummary& summary);
