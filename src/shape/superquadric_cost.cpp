@@ -5,6 +5,7 @@
 #include <cmath>
 #include <utility>
 
+#include "shape/pose_jacobian.h"
 #include "shape/superquadric_kernel.h"
 
 namespace novelty_detection {
@@ -67,20 +68,7 @@ inline double pointResidual(const Eigen::Vector3d& q, const double* a, double e1
     je[0] = big_s * big_e * (l - wa * la - wb * lb);
     je[1] = big_s * big_e * wa * (lxy - wxw * lx - wyw * ly);
   }
-  if (jw) {
-    // dr/dw = dr_dp^T [p]x J_r(w); as a row vector g^T J_r = (J_r^T g)^T with
-    // J_r^T g = g + c1 (w x g) + c2 w x (w x g), and (dr_dp^T [p]x)^T = dr_dp x p.
-    const Eigen::Vector3d h = dr_dp.cross(p);
-    const Eigen::Vector3d wxh = w.cross(h);
-    const Eigen::Vector3d g = h + rt.c1 * wxh + rt.c2 * w.cross(wxh);
-    for (int i = 0; i < 3; ++i) jw[i] = g[i];
-  }
-  if (jt) {
-    // dr/dt = -(Exp(w) dr_dp)^T; Exp(w) v = v + sa (w x v) + sb w x (w x v).
-    const Eigen::Vector3d wxv = w.cross(dr_dp);
-    const Eigen::Vector3d g = -(dr_dp + rt.sa * wxv + rt.sb * w.cross(wxv));
-    for (int i = 0; i < 3; ++i) jt[i] = g[i];
-  }
+  detail::poseJacobian(rt, p, dr_dp, jw, jt);
   return residual;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "novelty_detection/shape/superquadric_cost.h"
+#include "shape/pose_jacobian.h"
 #include "shape/superquadric_kernel.h"
 
 namespace novelty_detection {
@@ -88,18 +89,7 @@ double surfacePointResidual(const Eigen::Vector3d& q, const double* a, double e1
       derivative(2.0 * hx / e2, 0, 0, (bx - 2.0 * x * x) / (bx * bx), 0, 0, 0, 0),
       derivative(0, 2.0 * hy / e2, 0, 0, (by - 2.0 * y * y) / (by * by), 0, 0, 0),
       derivative(0, 0, 2.0 * hz / e1, 0, 0, (bz - 2.0 * z * z) / (bz * bz), 0, 0));
-  if (jw) {
-    // As for eq. 3 (superquadric_cost.cpp): J_r^T (dr_dp x p).
-    const Eigen::Vector3d h = dr_dp.cross(p);
-    const Eigen::Vector3d wxh = w.cross(h);
-    const Eigen::Vector3d gw = h + rt.c1 * wxh + rt.c2 * w.cross(wxh);
-    for (int i = 0; i < 3; ++i) jw[i] = gw[i];
-  }
-  if (jt) {
-    const Eigen::Vector3d wxv = w.cross(dr_dp);
-    const Eigen::Vector3d gt = -(dr_dp + rt.sa * wxv + rt.sb * w.cross(wxv));
-    for (int i = 0; i < 3; ++i) jt[i] = gt[i];
-  }
+  detail::poseJacobian(rt, p, dr_dp, jw, jt);
   return r;
 }
 

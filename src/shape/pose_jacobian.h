@@ -1,0 +1,34 @@
+// The rotation and translation rows of a superquadric residual's Jacobian from its gradient
+// in the canonical frame (shared by the per-point cost functions; not by the SIMD kernel).
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include "shape/superquadric_kernel.h"
+
+namespace novelty_detection {
+namespace detail {
+
+/// p = Exp(w)^T (q - t) the canonical point, dr_dp the residual's gradient there; fills
+/// jw[3] = dr/dw and jt[3] = dr/dt when not null.
+inline void poseJacobian(const RotationTerms& rt, const Eigen::Vector3d& p,
+                         const Eigen::Vector3d& dr_dp, double* jw, double* jt) {
+  const Eigen::Vector3d& w = rt.w;
+  if (jw) {
+    // dr/dw = dr_dp^T [p]x J_r(w); as a row vector g^T J_r = (J_r^T g)^T with
+    // J_r^T g = g + c1 (w x g) + c2 w x (w x g), and (dr_dp^T [p]x)^T = dr_dp x p.
+    const Eigen::Vector3d h = dr_dp.cross(p);
+    const Eigen::Vector3d wxh = w.cross(h);
+    const Eigen::Vector3d g = h + rt.c1 * wxh + rt.c2 * w.cross(wxh);
+    for (int i = 0; i < 3; ++i) jw[i] = g[i];
+  }
+  if (jt) {
+    // dr/dt = -(Exp(w) dr_dp)^T; Exp(w) v = v + sa (w x v) + sb w x (w x v).
+    const Eigen::Vector3d wxv = w.cross(dr_dp);
+    const Eigen::Vector3d g = -(dr_dp + rt.sa * wxv + rt.sb * w.cross(wxv));
+    for (int i = 0; i < 3; ++i) jt[i] = g[i];
+  }
+}
+
+}  // namespace detail
+}  // namespace novelty_detection
