@@ -1,5 +1,6 @@
-// The rotation and translation rows of a superquadric residual's Jacobian from its gradient
-// in the canonical frame (shared by the per-point cost functions; not by the SIMD kernel).
+// Jacobian helpers of the superquadric cost functions (not of the SIMD kernel): the rotation
+// and translation rows from a residual's gradient in the canonical frame, and the scaling of
+// one residual's rows in Ceres' blocks.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -27,6 +28,18 @@ inline void poseJacobian(const RotationTerms& rt, const Eigen::Vector3d& p,
     const Eigen::Vector3d wxv = w.cross(dr_dp);
     const Eigen::Vector3d g = -(dr_dp + rt.sa * wxv + rt.sb * w.cross(wxv));
     for (int i = 0; i < 3; ++i) jt[i] = g[i];
+  }
+}
+
+/// Parameter block sizes of every superquadric cost: sizes, exponents, rotation, translation.
+constexpr int kBlockSizes[4] = {3, 2, 3, 3};
+
+/// Multiplies residual i's rows of the (row-major, possibly null) Jacobian blocks by `factor`.
+inline void scaleJacobianRow(double** jacobians, int i, double factor) {
+  if (!jacobians) return;
+  for (int b = 0; b < 4; ++b) {
+    if (!jacobians[b]) continue;
+    for (int k = 0; k < kBlockSizes[b]; ++k) jacobians[b][i * kBlockSizes[b] + k] *= factor;
   }
 }
 

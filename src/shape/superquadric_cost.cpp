@@ -97,7 +97,7 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
                                          double** jacobians) const {
   // Ceres evaluates the cost at a candidate step and, when it accepts the step, the Jacobian
   // at the same parameters: the terms (the logs and exps, most of the cost) are then reused.
-  constexpr int kSizes[4] = {3, 2, 3, 3};
+  constexpr const int* kSizes = detail::kBlockSizes;
   bool same = cached_;
   for (int b = 0, m = 0; b < 4; ++b) {
     for (int k = 0; k < kSizes[b]; ++k, ++m) same = same && parameters[b][k] == last_[m];
@@ -136,15 +136,10 @@ SuperquadricOutsideResidual::SuperquadricOutsideResidual(const std::vector<Eigen
 bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
   if (!inner_.Evaluate(parameters, residuals, jacobians)) return false;
-  constexpr int kSizes[4] = {3, 2, 3, 3};
   for (int i = 0; i < num_residuals(); ++i) {
     const double scale = residuals[i] < 0.0 ? -weight_ : 0.0;
     residuals[i] *= scale;
-    if (!jacobians) continue;
-    for (int b = 0; b < 4; ++b) {
-      if (!jacobians[b]) continue;
-      for (int k = 0; k < kSizes[b]; ++k) jacobians[b][i * kSizes[b] + k] *= scale;
-    }
+    detail::scaleJacobianRow(jacobians, i, scale);
   }
   return true;
 }

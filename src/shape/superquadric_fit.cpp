@@ -197,23 +197,21 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   } else if (params_.robust_loss == "cauchy") {
     loss = new ceres::CauchyLoss(loss_scale);
   }
+  // The points in the start model's frame.
+  Points3d q(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
   if (!loss && !params_.autodiff) {
     // One block for all points: same cost and derivatives, far less per-block overhead.
-    Points3d q(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
     problem.AddResidualBlock(new SuperquadricBatchResidual(q), nullptr, a, e, w, t);
   } else {
-    for (const auto& p : points) {
-      const Eigen::Vector3d q = r0.transpose() * (p - c0);
-      problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(q)
-                                                : SuperquadricAnalyticResidual::Create(q),
+    for (const auto& qi : q) {
+      problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(qi)
+                                                : SuperquadricAnalyticResidual::Create(qi),
                                loss, a, e, w, t);
     }
   }
   if (bounded && bounds_) {
     if (bounds_->params.surface_weight > 0.0) {
-      Points3d q(points.size());
-      for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
       // One block for all points (a robust loss, if any, acts on eq. 3's residuals only).
       problem.AddResidualBlock(new SuperquadricSurfaceResidual(q, bounds_->params.surface_weight),
                                nullptr, a, e, w, t);

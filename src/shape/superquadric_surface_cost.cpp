@@ -105,19 +105,15 @@ SuperquadricSurfaceResidual::SuperquadricSurfaceResidual(const std::vector<Eigen
 bool SuperquadricSurfaceResidual::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
   const RotationTerms rt = rotationTerms(parameters[2]);
-  constexpr int kSizes[4] = {3, 2, 3, 3};
   for (std::size_t i = 0; i < q_.size(); ++i) {
     double* rows[4] = {nullptr, nullptr, nullptr, nullptr};
     for (int b = 0; jacobians && b < 4; ++b) {
-      if (jacobians[b]) rows[b] = jacobians[b] + kSizes[b] * i;
+      if (jacobians[b]) rows[b] = jacobians[b] + detail::kBlockSizes[b] * i;
     }
     residuals[i] =
         weight_ * surfacePointResidual(q_[i], parameters[0], parameters[1][0], parameters[1][1],
                                        parameters[3], rt, rows[0], rows[1], rows[2], rows[3]);
-    for (int b = 0; b < 4; ++b) {
-      if (!rows[b]) continue;
-      for (int k = 0; k < kSizes[b]; ++k) rows[b][k] *= weight_;
-    }
+    detail::scaleJacobianRow(jacobians, static_cast<int>(i), weight_);
   }
   return true;
 }
