@@ -253,11 +253,11 @@ void findDisappearedStructure(Detection& d) {
 /// that continue a novel segment.
 void addHiddenNovelties(Detection& d) {
   const detail::NoveltyCandidates& cand = d.candidates;
+  if (cand.hidden.empty()) return;
+  const Indices& kept = d.ref.kept;
+  std::vector<std::uint8_t> gone(kept.size(), 0);  // per structure point
+  for (std::size_t k = 0; k < kept.size(); ++k) gone[k] = d.result.disappeared_labels[kept[k]] > 0;
   if (hiddenSegmentRuleApplies(d)) {
-    const Indices& kept = d.ref.kept;
-    std::vector<std::uint8_t> gone(kept.size(), 0);  // per structure point
-    for (std::size_t k = 0; k < kept.size(); ++k)
-      gone[k] = d.result.disappeared_labels[kept[k]] > 0;
     for (Indices& seg :
          novelHiddenSegments(*d.current, cand.hidden, cand.hidden_owner, cand.hidden_vis,
                              static_cast<int>(d.result.current_gmm.size()), d.ref.structure, gone,
@@ -267,9 +267,15 @@ void addHiddenNovelties(Detection& d) {
                      [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
     d.timer.lap("hidden_segments");
   }
-  if (d.params.segmentation.hidden.continuations && !cand.hidden.empty()) {
+  if (d.params.segmentation.hidden.continuations) {
+    // A revealed surface beside a segment is no part of it (hidden_segments.h).
+    HiddenSegmentContext revealed;
+    revealed.current = d.current;
+    revealed.structure = &d.ref.structure;
+    revealed.gone = &gone;
+    revealed.tau = d.tau;
     growIntoHidden(*d.current, &d.pieces, cand.hidden, d.link_radius,
-                   d.params.segmentation.hidden.max_growth);
+                   d.params.segmentation.hidden.max_growth, &revealed, &d.params.segmentation);
     d.timer.lap("hidden_continuations");
   }
   for (std::size_t k = 0; k < cand.hidden.size(); ++k)

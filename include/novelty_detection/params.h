@@ -241,7 +241,9 @@ struct HiddenParams {
     f("hidden_continuations", continuations,
       {"candidates hidden from the map that are linked to a novel segment (closer than the "
        "segments' link radius, directly or through each other) join it: a moved object "
-       "reaching into the map's shadow is one object (hidden_segments.h)"});
+       "reaching into the map's shadow is one object; not when what they would add is a "
+       "revealed surface that continues the map's plane and not the segment's (the recess "
+       "beside a swung door leaf; hidden_segments.h)"});
     f("hidden_max_growth", max_growth,
       {"continuations add at most hidden_max_growth times a segment's own points, nearest "
        "links first: the part the map saw is the evidence for the part it could not see, and a "

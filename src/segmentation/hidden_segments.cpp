@@ -209,8 +209,44 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
   return out;
 }
 
+bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
+                     const SegmentationParams& params) {
+  if (points.size() < 3 || !ctx.current || !ctx.structure) return false;
+  const Plane plane = fitPlane(*ctx.current, points);
+  if (!(plane.sd(1) > ctx.tau) || plane.sd(0) > ctx.tau) return false;  // no plane patch
+  HiddenSegmentEvidence e;
+  measureRing(ctx, points, plane, params, &e);
+  return e.ring > 0 && e.ring_coplanar >= params.hidden.max_coplanar * e.ring;
+}
+
+bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                      const Indices& points, const SegmentationParams& params) {
+  if (points.empty() || segment.empty() || !ctx.current || !(ctx.tau > 0.0)) return false;
+  const Cloud& cloud = *ctx.current;
+  const double radius = params.hidden.ring_factor * ctx.tau;
+  Points3d pts;
+  pts.reserve(points.size());
+  for (int i : points) pts.push_back(cloud[i].getVector3fMap().cast<double>());
+  const PointGrid grid(pts, radius);
+  Indices near;  // the segment's points around them
+  for (int i : segment) {
+    bool close = false;
+    grid.forNeighbours(cloud[i].getVector3fMap().cast<double>(), radius,
+                       [&](int) { close = true; });
+    if (close) near.push_back(i);
+  }
+  if (near.size() < 3) return false;
+  const Plane plane = fitPlane(cloud, near);
+  const double on_plane = params.hidden.plane_factor * ctx.tau;
+  std::size_t on = 0;
+  for (const Eigen::Vector3d& p : pts)
+    on += std::abs(plane.normal.dot(p - plane.centroid)) <= on_plane;
+  return 2 * on >= points.size();
+}
+
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m, double max_growth) {
+                    double link_radius_m, double max_growth, const HiddenSegmentContext* revealed,
+                    const SegmentationParams* params) {
   if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
       !std::isfinite(link_radius_m)) {
     return;
@@ -245,6 +281,9 @@ void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const 
       });
     }
     if (added.empty()) continue;
+    if (revealed && params && revealedSurface(*revealed, added, *params) &&
+        !continuesSegment(*revealed, seg, added, *params))
+      continue;
     seg.insert(seg.end(), added.begin(), added.end());
     std::sort(seg.begin(), seg.end());
   }

@@ -5,7 +5,9 @@
 // removed box stay not novel; a moved box reaching into the old box's shadow is found whole.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <map>
 #include <utility>
 
 #include "novelty_detection/pipeline.h"
@@ -48,7 +50,7 @@ Counts count(const Result& r, const std::vector<int>& truth, int id) {
 
 /// Detection of `s` with the default rules (superquadrics off) and with `rule` switched off.
 std::pair<Result, Result> withAndWithout(const sim::ScenePair& s, bool HiddenParams::*rule,
-                                        double object_share = SegmentationParams().object_share) {
+                                         double object_share = SegmentationParams().object_share) {
   Params with;
   with.superquadric.enabled = false;
   with.segmentation.object_share = object_share;
@@ -206,4 +208,99 @@ TEST(HiddenSegments, ContinuationsGrowNearestFirstUpToTheCap) {
   for (int k = 0; k < 40; ++k) EXPECT_EQ(capped[k], k);  // the nearest links, in order
   EXPECT_EQ(grow(1000.0).size(), 220u);
   EXPECT_EQ(grow(0.0).size(), 20u);
+}
+
+// A continuation that is a revealed surface is none. A mapped wall (plane y = 0, 2 cm grid)
+// has a hole the reference could not see (0.3 <= x <= 0.7, z <= 1); a novel door leaf stands
+// on the hole's edge (plane x = 0.3, 0 < y <= 0.8). The hidden candidates filling the hole
+// continue the wall's plane and not the leaf's: with the context they do not join the leaf,
+// without it they do. The leaf's own hidden part (0.8 < y <= 1.2, away from the wall) joins
+// either way. A leaf shut in the hole (its left half novel) takes its hidden right half,
+// which continues the wall's plane and its own.
+TEST(HiddenSegments, RevealedSurfacesAreNoContinuation) {
+  const float s = 0.02f;
+  Cloud reference, current;
+  for (int i = -50; i <= 50; ++i)
+    for (int k = 0; k <= 100; ++k) {
+      const float x = s * i, z = s * k;
+      if (x >= 0.3f - 1e-4f && x <= 0.7f + 1e-4f && z <= 1.0f + 1e-4f) continue;
+      reference.push_back(PointT(x, 0.f, z));
+    }
+  Indices leaf, hole, far_leaf;
+  for (int j = 1; j <= 60; ++j)
+    for (int k = 0; k <= 50; ++k) {
+      (j <= 40 ? leaf : far_leaf).push_back(static_cast<int>(current.size()));
+      current.push_back(PointT(0.3f, s * j, s * k));
+    }
+  for (int i = 16; i <= 35; ++i)  // x = 0.32 .. 0.70: the hole beside the leaf
+    for (int k = 0; k <= 50; ++k) {
+      hole.push_back(static_cast<int>(current.size()));
+      current.push_back(PointT(s * i, 0.f, s * k));
+    }
+  Indices hidden = far_leaf;
+  hidden.insert(hidden.end(), hole.begin(), hole.end());
+  std::sort(hidden.begin(), hidden.end());
+  NearestNeighbourIndex structure;
+  structure.build(reference);
+  const std::vector<std::uint8_t> gone(reference.size(), 0);
+  HiddenSegmentContext ctx;
+  ctx.current = &current;
+  ctx.structure = &structure;
+  ctx.gone = &gone;
+  ctx.tau = 0.03;
+  const SegmentationParams params;
+  EXPECT_TRUE(revealedSurface(ctx, hole, params));
+  EXPECT_FALSE(revealedSurface(ctx, far_leaf, params));  // nothing mapped around it
+
+  auto grow = [&](const HiddenSegmentContext* context, const Indices& candidates) {
+    std::vector<Indices> segments{leaf};
+    growIntoHidden(current, &segments, candidates, 1.5 * s, 1000.0, context, &params);
+    return segments[0].size();
+  };
+  EXPECT_FALSE(continuesSegment(ctx, leaf, hole, params));
+  EXPECT_TRUE(continuesSegment(ctx, leaf, far_leaf, params));
+  EXPECT_EQ(grow(nullptr, hole), leaf.size() + hole.size());
+  EXPECT_EQ(grow(&ctx, hole), leaf.size());
+  EXPECT_EQ(grow(&ctx, far_leaf), leaf.size() + far_leaf.size());
+
+  Indices shut_left, shut_right;  // the hole's points split at x = 0.5
+  for (int i : hole) (current[i].x < 0.5f ? shut_left : shut_right).push_back(i);
+  EXPECT_TRUE(revealedSurface(ctx, shut_right, params));
+  EXPECT_TRUE(continuesSegment(ctx, shut_left, shut_right, params));
+  std::vector<Indices> shut{shut_left};
+  growIntoHidden(current, &shut, shut_right, 1.5 * s, 1000.0, &ctx, &params);
+  EXPECT_EQ(shut[0].size(), hole.size());
+}
+
+// Suite scenes of seed 5 whose door leaf swung nearly shut, away from the space it filled: 17
+// (86 -> 26 deg) and 20 (90 -> 19 deg). Continuations without the revealed-surface test carry
+// the leaf's segment over the recess the old leaf hid (173 and 140 newly visible points, IoU
+// 0.48); with it the leaf is found on its own. In scene 14 of seed 2 (89 -> 19 deg, 2,709
+// points) 717 points of the leaf the reference could not see continue the mapped wall and
+// the leaf's own plane: they join it (without the second test the leaf's IoU is 0.49).
+TEST(HiddenSegments, DoorLeafDoesNotGrowOverTheRecessItRevealed) {
+  for (const auto& [index, seed] : {std::pair{17, 5}, std::pair{20, 5}, std::pair{14, 2}}) {
+    const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(index, seed));
+    const int door = doorId(s);
+    ASSERT_GT(door, 0);
+    Params params;
+    params.superquadric.enabled = false;
+    Pipeline pipeline(params);
+    pipeline.setReference(s.reference);
+    const Result r = pipeline.detect(s.current);
+    long revealed = 0, leaf = 0, found = 0, best_segment = 0;
+    std::map<int, long> on_leaf;
+    for (std::size_t i = 0; i < r.labels.size(); ++i) {
+      revealed += s.current_newly_visible[i] && r.labels[i] > 0;
+      leaf += s.current_labels[i] == door;
+      if (s.current_labels[i] == door && r.labels[i] > 0) ++on_leaf[r.labels[i]], ++found;
+    }
+    for (const auto& [id, n] : on_leaf) best_segment = std::max(best_segment, n);
+    std::printf(
+        "seed %d scene %d: leaf %ld points, %ld found (%ld in one segment), %ld newly "
+        "visible labelled\n",
+        seed, index, leaf, found, best_segment, revealed);
+    EXPECT_EQ(revealed, 0) << "seed " << seed << " scene " << index;
+    EXPECT_GE(best_segment, leaf * 7 / 10) << "seed " << seed << " scene " << index;
+  }
 }

@@ -103,8 +103,27 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 /// segment and are linked to a segment's points (closer than `link_radius_m`, directly or
 /// through other such candidates) join that segment (segments in order, each kept
 /// ascending), breadth first from the segment's points, and at most `max_growth` times the
-/// segment's own points (segmentation/hidden_max_growth).
+/// segment's own points (segmentation/hidden_max_growth). With `revealed` and `params`, a
+/// segment's continuation that is a revealed surface (revealedSurface) and does not continue
+/// the segment's own surface (continuesSegment) is none: the wall or recess an old door leaf
+/// hid, now seen beside the leaf; those candidates join no segment. The part of the leaf the
+/// reference could not see continues the leaf's plane and joins it.
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m, double max_growth);
+                    double link_radius_m, double max_growth,
+                    const HiddenSegmentContext* revealed = nullptr,
+                    const SegmentationParams* params = nullptr);
+
+/// Whether cloud points `points` (indices into *ctx.current) are a surface the reference
+/// could not see that continues its mapped structure: a plane patch (test 2 above) with
+/// reference structure around it, of which at least hidden_max_coplanar lies on its plane
+/// (test 3). Uses ctx.current, structure, gone and tau.
+bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
+                     const SegmentationParams& params);
+
+/// Whether `points` continue `segment`'s own surface: at least half of them lie within
+/// hidden_plane_factor * tau of the plane of the segment's points around them (within
+/// hidden_ring_factor * tau of one of them). Indices into *ctx.current; uses ctx.tau.
+bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                      const Indices& points, const SegmentationParams& params);
 
 }  // namespace novelty_detection
