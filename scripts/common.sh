@@ -26,3 +26,23 @@ if [ -z "${NOVELTY_REAL_DATA:-}" ] && [ -d "$REPO/../shared/data/real" ]; then
   NOVELTY_REAL_DATA="$(cd "$REPO/../shared/data/real" && pwd)"
 fi
 export NOVELTY_REAL_DATA="${NOVELTY_REAL_DATA:-}"
+
+# The suites' range noise: NOVELTY_SUITE_NOISE_VAR (variance [m^2], the simulator's default,
+# the paper's 0.001, when unset) for run_suite.sh and evaluate_viewpoint.sh.
+# suite_noise_args fills SUITE_NOISE_ARGS for simulate_scans; suite_noise_matches DIR says
+# whether the suite simulated in DIR has that noise.
+suite_noise_args() {
+  SUITE_NOISE_ARGS=()
+  local v="${NOVELTY_SUITE_NOISE_VAR:-}"
+  [ -z "$v" ] && return 0
+  case "$v" in
+    *[!0-9.eE+-]* | '') log "NOVELTY_SUITE_NOISE_VAR: '$v' is not a variance in m^2"; exit 2 ;;
+  esac
+  # shellcheck disable=SC2034  # read by the scripts that source this file
+  SUITE_NOISE_ARGS=(--noise-var "$v")
+}
+suite_noise_matches() {
+  local want="${NOVELTY_SUITE_NOISE_VAR:-0.001}" first
+  first="$(find "$1" -maxdepth 2 -name scene.json -path '*scene_000*' | head -n 1)"
+  [ -n "$first" ] && grep -Eq "\"noise_variance_m2\": ${want//./\\.},?$" "$first"
+}

@@ -13,7 +13,8 @@
 # (evaluate), OUT_DIR/viewpoint.md and, unless --no-docs, bench/results/viewpoint.md (the
 # table). NOVELTY_SUITE_SEED (default 1) seeds the suite; NOVELTY_SUITE_SEEDS="1 2 3" runs one
 # suite per seed and summarises them (below); NOVELTY_SKIP_BUILD=1 skips the build;
-# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
+# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config; NOVELTY_SUITE_NOISE_VAR
+# sets the range noise variance [m^2] of the simulated scenes (default 0.001, the paper's).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 DOCS_UPDATE=1
@@ -53,17 +54,18 @@ if [ -n "${NOVELTY_SUITE_SEEDS:-}" ]; then
 fi
 
 start=$(date +%s)
+suite_noise_args
 # Reuse a suite simulated before with the same size, seed and kind by the same simulator.
 if [ -f "$SUITE/suite.json" ] && [ "$SUITE/suite.json" -nt "$BIN/simulate_scans" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&
   grep -Eq "\"suite_seed\": $SEED,?$" "$SUITE/suite.json" &&
-  grep -Eq "\"kind\": \"viewpoint\",?$" "$SUITE/suite.json"; then
+  grep -Eq "\"kind\": \"viewpoint\",?$" "$SUITE/suite.json" && suite_noise_matches "$SUITE"; then
   log "reusing the simulated suite in $SUITE"
 else
   rm -rf "$SUITE"
   log "simulating $N viewpoint scenes into $SUITE"
   mkdir -p "$OUT"
   "$BIN/simulate_scans" --out "$SUITE" --suite "$N" --suite-kind viewpoint --seed "$SEED" \
-    --no-bag > "$OUT/simulate.log" 2>&1 || { cat "$OUT/simulate.log" >&2; exit 1; }
+    --no-bag ${SUITE_NOISE_ARGS[@]+"${SUITE_NOISE_ARGS[@]}"} > "$OUT/simulate.log" 2>&1 || { cat "$OUT/simulate.log" >&2; exit 1; }
 fi
 
 rc=0

@@ -5,7 +5,8 @@
 # detector's output and stderr.log), OUT_DIR/table.md, table.csv and scores.json.
 # Build first (scripts/build.sh). The suite seed is NOVELTY_SUITE_SEED (default 1);
 # NOVELTY_SUITE_SEEDS="1 2 3 4 5" runs one suite per seed and summarises them (below);
-# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config.
+# NOVELTY_CONFIG=FILE.yaml is passed to novelty_detect as --config; NOVELTY_SUITE_NOISE_VAR
+# sets the range noise variance [m^2] of the simulated scenes (default 0.001, the paper's).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 N="${1:-30}"
@@ -39,13 +40,15 @@ if [ -n "${NOVELTY_SUITE_SEEDS:-}" ]; then
 fi
 
 # Reuse a suite simulated before with the same size and seed.
+suite_noise_args
 if [ -f "$SUITE/suite.json" ] && grep -Eq "\"size\": $N,?$" "$SUITE/suite.json" &&
-  grep -Eq "\"suite_seed\": $SEED,?$" "$SUITE/suite.json"; then
+  grep -Eq "\"suite_seed\": $SEED,?$" "$SUITE/suite.json" && suite_noise_matches "$SUITE"; then
   log "reusing the simulated suite in $SUITE"
 else
   rm -rf "$SUITE"
   log "simulating $N scenes into $SUITE"
-  "$BIN/simulate_scans" --out "$SUITE" --suite "$N" --seed "$SEED" --no-bag
+  "$BIN/simulate_scans" --out "$SUITE" --suite "$N" --seed "$SEED" --no-bag \
+    ${SUITE_NOISE_ARGS[@]+"${SUITE_NOISE_ARGS[@]}"}
 fi
 
 rc=0
