@@ -36,13 +36,13 @@ suite_noise_args() {
   local v="${NOVELTY_SUITE_NOISE_VAR:-}"
   [ -z "$v" ] && return 0
   case "$v" in
-    *[!0-9.eE+-]* | '') log "NOVELTY_SUITE_NOISE_VAR: '$v' is not a variance in m^2"; exit 2 ;;
+    *[!0-9.eE+-]*) log "NOVELTY_SUITE_NOISE_VAR: '$v' is not a variance in m^2"; exit 2 ;;
   esac
   # shellcheck disable=SC2034  # read by the scripts that source this file
   SUITE_NOISE_ARGS=(--noise-var "$v")
 }
 suite_noise_matches() {
-  local want="${NOVELTY_SUITE_NOISE_VAR:-0.001}" first
-  first="$(find "$1" -maxdepth 2 -name scene.json -path '*scene_000*' | head -n 1)"
-  [ -n "$first" ] && grep -Eq "\"noise_variance_m2\": ${want//./\\.},?$" "$first"
+  local want="${NOVELTY_SUITE_NOISE_VAR:-0.001}"
+  [ -f "$1/scene_000/scene.json" ] &&
+    grep -Eq "\"noise_variance_m2\": ${want//./\\.},?$" "$1/scene_000/scene.json"
 }

@@ -17,6 +17,17 @@ namespace {
 using detail::fitPlane;
 using detail::Plane;
 
+// Test 2 on a plane fit's spreads: a surface patch, with a plane (width above tau) and
+// noise-sized thickness.
+bool surfacePatch(double width_m, double thickness_m, double tau) {
+  return width_m > tau && !(thickness_m > tau);
+}
+
+// Test 3's verdict: structure around, and enough of it on the segment's plane.
+bool continuesMap(const HiddenSegmentEvidence& e, const SegmentationParams& params) {
+  return e.ring > 0 && e.ring_coplanar >= params.hidden.max_coplanar * e.ring;
+}
+
 // Test 3: reference structure around the segment, and how much of it lies on its plane. The
 // segment is queried at one point per voxel of half the ring radius (the ring is the
 // structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
@@ -165,12 +176,10 @@ HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, cons
 
 bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
                           const SegmentationParams& params) {
-  if (2 * e.occluded < e.points) return false;  // 1
-  if (!(e.width_m > tau)) return false;         // 2
-  if (e.thickness_m > tau) return false;        // 2
-  if (e.ring == 0) return false;                // 3
-  if (e.ring_coplanar >= params.hidden.max_coplanar * e.ring) return false;
-  const int outline = e.past + e.on;  // 4
+  if (2 * e.occluded < e.points) return false;                     // 1
+  if (!surfacePatch(e.width_m, e.thickness_m, tau)) return false;  // 2
+  if (e.ring == 0 || continuesMap(e, params)) return false;        // 3
+  const int outline = e.past + e.on;                               // 4
   return outline > 0 && e.past >= params.hidden.min_free_edge * outline;
 }
 
@@ -213,10 +222,10 @@ bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
                      const SegmentationParams& params) {
   if (points.size() < 3 || !ctx.current || !ctx.structure) return false;
   const Plane plane = fitPlane(*ctx.current, points);
-  if (!(plane.sd(1) > ctx.tau) || plane.sd(0) > ctx.tau) return false;  // no plane patch
+  if (!surfacePatch(plane.sd(1), plane.sd(0), ctx.tau)) return false;
   HiddenSegmentEvidence e;
   measureRing(ctx, points, plane, params, &e);
-  return e.ring > 0 && e.ring_coplanar >= params.hidden.max_coplanar * e.ring;
+  return continuesMap(e, params);
 }
 
 bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,

@@ -97,10 +97,10 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
                                          double** jacobians) const {
   // Ceres evaluates the cost at a candidate step and, when it accepts the step, the Jacobian
   // at the same parameters: the terms (the logs and exps, most of the cost) are then reused.
-  constexpr const int* kSizes = detail::kBlockSizes;
+  using detail::kBlockSizes;
   bool same = cached_;
   for (int b = 0, m = 0; b < 4; ++b) {
-    for (int k = 0; k < kSizes[b]; ++k, ++m) same = same && parameters[b][k] == last_[m];
+    for (int k = 0; k < kBlockSizes[b]; ++k, ++m) same = same && parameters[b][k] == last_[m];
   }
   const Eigen::Index n = q_.cols();
   if (!same) {
@@ -109,7 +109,7 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
                                 std::min(kChunk, n - begin));
     }
     for (int b = 0, m = 0; b < 4; ++b) {
-      for (int k = 0; k < kSizes[b]; ++k, ++m) last_[m] = parameters[b][k];
+      for (int k = 0; k < kBlockSizes[b]; ++k, ++m) last_[m] = parameters[b][k];
     }
     cached_ = true;
   }
@@ -118,7 +118,7 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
   for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
     double* chunk[4] = {nullptr, nullptr, nullptr, nullptr};
     for (int b = 0; b < 4; ++b) {
-      if (jacobians[b]) chunk[b] = jacobians[b] + kSizes[b] * begin;
+      if (jacobians[b]) chunk[b] = jacobians[b] + kBlockSizes[b] * begin;
     }
     detail::superquadricJacobian(parameters, terms_.data(), n, begin, std::min(kChunk, n - begin),
                                  chunk);
