@@ -85,11 +85,13 @@ bool SuperquadricAnalyticResidual::Evaluate(double const* const* parameters, dou
 
 static_assert(SuperquadricBatchResidual::kChunk == detail::kKernelChunk, "chunk size");
 
-SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q)
+SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q,
+                                                     double surface_weight)
     : q_(3, static_cast<Eigen::Index>(q.size())),
+      surface_weight_(surface_weight),
       terms_(static_cast<Eigen::Index>(q.size()), static_cast<Eigen::Index>(detail::kTerms)) {
   for (std::size_t i = 0; i < q.size(); ++i) q_.col(static_cast<Eigen::Index>(i)) = q[i];
-  set_num_residuals(static_cast<int>(q.size()));
+  set_num_residuals(static_cast<int>(q.size()) * (surface_weight > 0.0 ? 2 : 1));
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
 }
 
@@ -114,14 +116,23 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
     cached_ = true;
   }
   Eigen::Map<Eigen::VectorXd>(residuals, n) = terms_.col(detail::kResidual);
-  if (!jacobians) return true;
+  // Ceres' Jacobian blocks are row-major: the rows of residual i start at i * size(b).
+  auto rows = [jacobians](Eigen::Index first, double** out) {
+    for (int b = 0; b < 4; ++b)
+      out[b] = jacobians[b] ? jacobians[b] + kBlockSizes[b] * first : nullptr;
+  };
   for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
-    double* chunk[4] = {nullptr, nullptr, nullptr, nullptr};
-    for (int b = 0; b < 4; ++b) {
-      if (jacobians[b]) chunk[b] = jacobians[b] + kBlockSizes[b] * begin;
+    const Eigen::Index m = std::min(kChunk, n - begin);
+    double* chunk[4];
+    if (jacobians) {
+      rows(begin, chunk);
+      detail::superquadricJacobian(parameters, terms_.data(), n, begin, m, chunk);
     }
-    detail::superquadricJacobian(parameters, terms_.data(), n, begin, std::min(kChunk, n - begin),
-                                 chunk);
+    if (surface_weight_ > 0.0) {
+      if (jacobians) rows(n + begin, chunk);
+      detail::superquadricSurfaceResiduals(parameters, terms_.data(), n, begin, m, surface_weight_,
+                                           residuals + n + begin, jacobians ? chunk : nullptr);
+    }
   }
   return true;
 }

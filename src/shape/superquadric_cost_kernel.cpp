@@ -39,6 +39,44 @@ RotationTerms rotationTerms(const double* w_ptr) {
 // as much time as the arithmetic.)
 using ChunkArray = Eigen::Array<double, Eigen::Dynamic, 1, Eigen::ColMajor, kKernelChunk, 1>;
 
+namespace {
+
+/// Rotation and translation rows (jw, jt: the chunk's first rows, null ones skipped) of
+/// residuals whose gradient in the canonical frame is (gx, gy, gz) at the points (px, py, pz).
+void writePoseRows(const RotationTerms& rt, const ChunkArray& px, const ChunkArray& py,
+                   const ChunkArray& pz, const ChunkArray& gx, const ChunkArray& gy,
+                   const ChunkArray& gz, Eigen::Index n, double* jw, double* jt) {
+  using A = ChunkArray;
+  const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
+  if (jw) {
+    // h = dr_dp x p; J_r^T h = h + c1 (w x h) + c2 w x (w x h).
+    const A hx = gy * pz - gz * py, hy = gz * px - gx * pz, hz = gx * py - gy * px;
+    const A mx = wy * hz - wz * hy, my = wz * hx - wx * hz, mz = wx * hy - wy * hx;
+    const A jx = hx + rt.c1 * mx + rt.c2 * (wy * mz - wz * my);
+    const A jy = hy + rt.c1 * my + rt.c2 * (wz * mx - wx * mz);
+    const A jz = hz + rt.c1 * mz + rt.c2 * (wx * my - wy * mx);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jw[3 * i] = jx[i];
+      jw[3 * i + 1] = jy[i];
+      jw[3 * i + 2] = jz[i];
+    }
+  }
+  if (jt) {
+    // -(Exp(w) dr_dp) = -(v + sa (w x v) + sb w x (w x v)).
+    const A vx = wy * gz - wz * gy, vy = wz * gx - wx * gz, vz = wx * gy - wy * gx;
+    const A jx = -(gx + rt.sa * vx + rt.sb * (wy * vz - wz * vy));
+    const A jy = -(gy + rt.sa * vy + rt.sb * (wz * vx - wx * vz));
+    const A jz = -(gz + rt.sa * vz + rt.sb * (wx * vy - wy * vx));
+    for (Eigen::Index i = 0; i < n; ++i) {
+      jt[3 * i] = jx[i];
+      jt[3 * i + 1] = jy[i];
+      jt[3 * i + 2] = jz[i];
+    }
+  }
+}
+
+}  // namespace
+
 void superquadricTerms(double const* const* parameters, const double* q_data, double* terms_data,
                        Eigen::Index rows, Eigen::Index begin, Eigen::Index n) {
   const Eigen::Map<const Eigen::Matrix3Xd> q_(q_data, 3, rows);
@@ -97,7 +135,6 @@ void superquadricJacobian(double const* const* parameters, const double* terms_d
   const RotationTerms rt = rotationTerms(parameters[2]);
   const double* a = parameters[0];
   const double e1 = parameters[1][0];
-  const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
   auto term = [&](KernelTerm k) { return terms_.col(k).segment(begin, n).array(); };
   const A px = term(kPx), py = term(kPy), pz = term(kPz);
   const A sx = px.square() / (a[0] * a[0]), sy = py.square() / (a[1] * a[1]);
@@ -131,31 +168,81 @@ void superquadricJacobian(double const* const* parameters, const double* terms_d
       jacobians[1][2 * i + 1] = je1[i];
     }
   }
-  if (jacobians[2]) {
-    // h = dr_dp x p; J_r^T h = h + c1 (w x h) + c2 w x (w x h).
-    const A hx = gy * pz - gz * py, hy = gz * px - gx * pz, hz = gx * py - gy * px;
-    const A mx = wy * hz - wz * hy, my = wz * hx - wx * hz, mz = wx * hy - wy * hx;
-    const A jx = hx + rt.c1 * mx + rt.c2 * (wy * mz - wz * my);
-    const A jy = hy + rt.c1 * my + rt.c2 * (wz * mx - wx * mz);
-    const A jz = hz + rt.c1 * mz + rt.c2 * (wx * my - wy * mx);
+  writePoseRows(rt, px, py, pz, gx, gy, gz, n, jacobians[2], jacobians[3]);
+}
+
+void superquadricSurfaceResiduals(double const* const* parameters, const double* terms_data,
+                                  Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
+                                  double weight, double* residuals, double** jacobians) {
+  const Eigen::Map<const Eigen::MatrixXd> terms_(terms_data, rows, kTerms);
+  using A = ChunkArray;
+  const double* a = parameters[0];
+  const double e1 = parameters[1][0], e2 = parameters[1][1];
+  auto term = [&](KernelTerm k) { return terms_.col(k).segment(begin, n).array(); };
+  // The scalar residual's quantities (superquadric_surface_cost.cpp): its logs, weights and
+  // log F are eq. 3's terms; hx = x / (x^2 + tiny a1^2), likewise hy, hz.
+  const A px = term(kPx), py = term(kPy), pz = term(kPz);
+  const A bx = px.square() + kSqTinySquared * a[0] * a[0];
+  const A by = py.square() + kSqTinySquared * a[1] * a[1];
+  const A bz = pz.square() + kSqTinySquared * a[2] * a[2];
+  const A hx = px / bx, hy = py / by, hz = pz / bz;
+  const A lx = term(kLx), ly = term(kLy), lz = term(kLb), lxy = term(kLxy), la = term(kLa);
+  const A l = term(kL), wx = term(kWxw), wy = term(kWyw), wa = term(kWa), wb = term(kWb);
+  const A g = (-0.5 * e1 * l).exp();
+  const A vx = wa * wx * hx, vy = wa * wy * hy, vz = wb * hz;
+  const A norm = (vx.square() + vy.square() + vz.square() + kTinyNorm2).sqrt();
+  const A r = (1.0 - g) / norm;
+  Eigen::Map<Eigen::ArrayXd>(residuals, n) = weight * r;
+  if (!jacobians) return;
+
+  // weight * dr along one parameter from the derivatives of lx, ly, lz, hx, hy, hz and
+  // whether the parameter is e1 or e2 (which also enter la and the numerator directly).
+  const A zero = A::Zero(n);
+  auto derivative = [&](const A& dlx, const A& dly, const A& dlz, const A& dhx, const A& dhy,
+                        const A& dhz, double de1, double de2) -> A {
+    const A dlxy = wx * dlx + wy * dly;
+    const A dwx = wx * wy * (dlx - dly);
+    const A dla = e2 / e1 * dlxy + (de2 * lxy - de1 * la) / e1;
+    const A dwa = wa * wb * (dla - dlz);
+    const A dl = wa * dla + wb * dlz;
+    const A dnum = 0.5 * g * (e1 * dl + de1 * l);
+    const A dvx = dwa * wx * hx + wa * dwx * hx + wa * wx * dhx;
+    const A dvy = dwa * wy * hy - wa * dwx * hy + wa * wy * dhy;
+    const A dvz = -dwa * hz + wb * dhz;
+    const A dnorm = (vx * dvx + vy * dvy + vz * dvz) / norm;
+    return weight * (dnum - r * dnorm) / norm;
+  };
+  if (jacobians[0]) {
+    const A ja0 = derivative(-2.0 * px * hx / (a[0] * e2), zero, zero,
+                             -2.0 * kSqTinySquared * a[0] * px / bx.square(), zero, zero, 0, 0);
+    const A ja1 = derivative(zero, -2.0 * py * hy / (a[1] * e2), zero, zero,
+                             -2.0 * kSqTinySquared * a[1] * py / by.square(), zero, 0, 0);
+    const A ja2 = derivative(zero, zero, -2.0 * pz * hz / (a[2] * e1), zero, zero,
+                             -2.0 * kSqTinySquared * a[2] * pz / bz.square(), 0, 0);
     for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[2][3 * i] = jx[i];
-      jacobians[2][3 * i + 1] = jy[i];
-      jacobians[2][3 * i + 2] = jz[i];
+      jacobians[0][3 * i] = ja0[i];
+      jacobians[0][3 * i + 1] = ja1[i];
+      jacobians[0][3 * i + 2] = ja2[i];
     }
   }
-  if (jacobians[3]) {
-    // -(Exp(w) dr_dp) = -(v + sa (w x v) + sb w x (w x v)).
-    const A vx = wy * gz - wz * gy, vy = wz * gx - wx * gz, vz = wx * gy - wy * gx;
-    const A jx = -(gx + rt.sa * vx + rt.sb * (wy * vz - wz * vy));
-    const A jy = -(gy + rt.sa * vy + rt.sb * (wz * vx - wx * vz));
-    const A jz = -(gz + rt.sa * vz + rt.sb * (wx * vy - wy * vx));
+  if (jacobians[1]) {
+    const A je0 = derivative(zero, zero, -lz / e1, zero, zero, zero, 1, 0);
+    const A je1 = derivative(-lx / e2, -ly / e2, zero, zero, zero, zero, 0, 1);
     for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[3][3 * i] = jx[i];
-      jacobians[3][3 * i + 1] = jy[i];
-      jacobians[3][3 * i + 2] = jz[i];
+      jacobians[1][2 * i] = je0[i];
+      jacobians[1][2 * i + 1] = je1[i];
     }
   }
+  if (!jacobians[2] && !jacobians[3]) return;
+  // The gradient in the canonical frame (already weighted).
+  const A gx = derivative(2.0 * hx / e2, zero, zero, (bx - 2.0 * px.square()) / bx.square(), zero,
+                          zero, 0, 0);
+  const A gy = derivative(zero, 2.0 * hy / e2, zero, zero, (by - 2.0 * py.square()) / by.square(),
+                          zero, 0, 0);
+  const A gz = derivative(zero, zero, 2.0 * hz / e1, zero, zero,
+                          (bz - 2.0 * pz.square()) / bz.square(), 0, 0);
+  writePoseRows(rotationTerms(parameters[2]), px, py, pz, gx, gy, gz, n, jacobians[2],
+                jacobians[3]);
 }
 
 void superquadricDistances(const double* shape, const double* rotation, const double* centre,

@@ -200,22 +200,26 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   // The points in the start model's frame.
   Points3d q(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
+  // A bounded fit adds each point's first-order surface distance (fit_bounds.h).
+  const double surface_weight =
+      bounded && bounds_ ? std::max(0.0, bounds_->params.surface_weight) : 0.0;
   if (!loss && !params_.autodiff) {
-    // One block for all points: same cost and derivatives, far less per-block overhead.
-    problem.AddResidualBlock(new SuperquadricBatchResidual(q), nullptr, a, e, w, t);
+    // One block for all points, with their surface distances: same cost and derivatives,
+    // far less per-block overhead, and the distances reuse eq. 3's logs and exps.
+    problem.AddResidualBlock(new SuperquadricBatchResidual(q, surface_weight), nullptr, a, e, w, t);
   } else {
     for (const auto& qi : q) {
       problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(qi)
                                                 : SuperquadricAnalyticResidual::Create(qi),
                                loss, a, e, w, t);
     }
+    if (surface_weight > 0.0) {
+      // One block for all points (the robust loss, if any, acts on eq. 3's residuals only).
+      problem.AddResidualBlock(new SuperquadricSurfaceResidual(q, surface_weight), nullptr, a, e, w,
+                               t);
+    }
   }
   if (bounded && bounds_) {
-    if (bounds_->params.surface_weight > 0.0) {
-      // One block for all points (a robust loss, if any, acts on eq. 3's residuals only).
-      problem.AddResidualBlock(new SuperquadricSurfaceResidual(q, bounds_->params.surface_weight),
-                               nullptr, a, e, w, t);
-    }
     addBounds(*bounds_, points, standing, r0, c0, a, e, w, t, &problem);
   }
   if (up_axis >= 0) {

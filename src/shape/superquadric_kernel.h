@@ -52,6 +52,18 @@ void superquadricTerms(double const* const* parameters, const double* q, double*
 void superquadricJacobian(double const* const* parameters, const double* terms, Eigen::Index rows,
                           Eigen::Index begin, Eigen::Index n, double** jacobians);
 
+/// Keeps the first-order surface distance finite at the centre, where the gradient of log F
+/// vanishes.
+constexpr double kTinyNorm2 = 1e-24;
+
+/// weight times the first-order surface distances of points [begin, begin + n) and their
+/// Jacobian rows, from eq. 3's terms at the same parameters (the same formulas as
+/// SuperquadricSurfaceResidual, equal up to rounding). `residuals` and `jacobians` (null
+/// ones skipped; null: residuals only) point at the chunk's first rows.
+void superquadricSurfaceResiduals(double const* const* parameters, const double* terms,
+                                  Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
+                                  double weight, double* residuals, double** jacobians);
+
 /// Distances of points to a superquadric, vectorised (the same formulas as radialDistance()
 /// and surfaceDistance() in superquadric.cpp, equal to them up to rounding). `shape`: a1, a2,
 /// a3, e1, e2; `rotation`: R (3 x 3, column-major); `centre`: its position; `points`: n

@@ -10,11 +10,9 @@
 namespace novelty_detection {
 namespace {
 
+using detail::kTinyNorm2;
 using detail::RotationTerms;
 using detail::rotationTerms;
-
-/// Keeps the distance finite at the centre, where the gradient of log F vanishes.
-constexpr double kTinyNorm2 = 1e-24;
 
 /// Residual of one point (start-frame coordinates q) and, when the pointers are not null,
 /// its derivatives: ja[3] (sizes), je[2] (exponents), jw[3] (rotation), jt[3] (translation).

@@ -1,6 +1,7 @@
 // Speed work on shape retrieval, with known answers: the batched residual equals one residual
-// per point; results do not depend on the thread count (split and merge, shape retrieval,
-// whole pipeline); the residual-noise split criterion keeps a laser-swept cylinder whole.
+// per point, and its surface distances the scalar ones; results do not depend on the thread
+// count (split and merge, shape retrieval, whole pipeline); the residual-noise split criterion
+// keeps a laser-swept cylinder whole.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -58,24 +59,39 @@ Points3d objectPoints(sim::NoveltyKind kind, std::uint64_t seed, double noise_va
   return out;
 }
 
+/// Random points (within `extent` of the origin, one at the centre and one on an axis) and
+/// superquadric parameters for a cost test; every fourth trial with a tiny rotation (both
+/// branches of the rotation terms), and 37, 64 or 150 points (within one chunk, exactly one,
+/// several with a partial last one).
+struct CostCase {
+  std::vector<Eigen::Vector3d> q;
+  double a[3], e[2], w[3], t[3];
+  const double* params[4] = {a, e, w, t};
+  CostCase(std::mt19937& rng, int trial, double extent) {
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    q.resize(trial % 3 == 0 ? 37u : trial % 3 == 1 ? 64u : 150u);
+    for (auto& p : q) p = extent * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    q[3].setZero();                         // the centre: guarded powers
+    q[4] = Eigen::Vector3d(0.0, 0.0, 0.5);  // on an axis
+    for (double& v : a) v = 0.3 + 0.2 * u(rng);
+    for (double& v : e) v = 1.0 + 0.85 * u(rng);
+    const double scale = trial % 4 == 0 ? 1e-6 : 1.5;
+    for (double& v : w) v = scale * u(rng);
+    for (double& v : t) v = 0.2 * u(rng);
+  }
+  CostCase(const CostCase&) = delete;
+};
+
 }  // namespace
 
 TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int trial = 0; trial < 21; ++trial) {
-    // Within one chunk of points, exactly one, and several with a partial last one.
-    const std::size_t n = trial % 3 == 0 ? 37u : trial % 3 == 1 ? 64u : 150u;
-    std::vector<Eigen::Vector3d> q(n);
-    for (auto& p : q) p = Eigen::Vector3d(u(rng), u(rng), u(rng));
-    q[3].setZero();                         // the centre: guarded powers
-    q[4] = Eigen::Vector3d(0.0, 0.0, 0.5);  // on an axis
-    double a[3] = {0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng), 0.3 + 0.2 * u(rng)};
-    double e[2] = {1.0 + 0.85 * u(rng), 1.0 + 0.85 * u(rng)};
-    const double scale = trial % 4 == 0 ? 1e-6 : 1.5;  // both branches of the rotation terms
-    double w[3] = {scale * u(rng), scale * u(rng), scale * u(rng)};
-    double t[3] = {0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng)};
-    const double* params[4] = {a, e, w, t};
+    const CostCase c(rng, trial, 1.0);
+    const std::vector<Eigen::Vector3d>& q = c.q;
+    const std::size_t n = q.size();
+    const double *a = c.a, *e = c.e, *w = c.w, *t = c.t;
+    const double* const* params = c.params;
     const SuperquadricBatchResidual batch(q);
     ASSERT_EQ(batch.num_residuals(), static_cast<int>(n));
     std::vector<double> r(q.size()), ja(3 * q.size()), je(2 * q.size()), jw(3 * q.size()),
@@ -109,6 +125,55 @@ TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
           const double got = jac[b][sizes[b] * i + c];
           EXPECT_NEAR(got, j1[b][c], 1e-10 * (1.0 + std::abs(j1[b][c])))
               << "point " << i << " block " << b << " index " << c;
+        }
+      }
+    }
+  }
+}
+
+// With a surface weight the batched block appends each point's first-order surface
+// distance, computed from eq. 3's terms: equal to the scalar SuperquadricSurfaceResidual
+// (values and all Jacobian blocks), eq. 3's rows unchanged, at the centre and on an axis.
+TEST(SuperquadricCost, BatchSurfaceDistancesEqualTheScalarResidual) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 21; ++trial) {
+    const CostCase c(rng, trial, 0.6);
+    const std::vector<Eigen::Vector3d>& q = c.q;
+    const std::size_t n = q.size();
+    const double* const* params = c.params;
+    const double weight = 1.0 + 0.5 * u(rng);
+    const SuperquadricBatchResidual plain(q), both(q, weight);
+    const SuperquadricSurfaceResidual scalar(q, weight);
+    ASSERT_EQ(both.num_residuals(), static_cast<int>(2 * n));
+    const int sizes[4] = {3, 2, 3, 3};
+    auto evaluate = [&](const ceres::CostFunction& f, std::vector<double>* r,
+                        std::vector<double>(*j)[4], bool with_jacobians) {
+      const std::size_t m = static_cast<std::size_t>(f.num_residuals());
+      r->assign(m, 0.0);
+      double* jac[4];
+      for (int b = 0; b < 4; ++b) {
+        (*j)[b].assign(m * sizes[b], 0.0);
+        jac[b] = (*j)[b].data();
+      }
+      return f.Evaluate(params, r->data(), with_jacobians ? jac : nullptr);
+    };
+    std::vector<double> r_plain, r_both, r_scalar, r_only, jp[4], jb[4], js[4], jo[4];
+    ASSERT_TRUE(evaluate(plain, &r_plain, &jp, true));
+    ASSERT_TRUE(evaluate(both, &r_both, &jb, true));
+    ASSERT_TRUE(evaluate(scalar, &r_scalar, &js, true));
+    ASSERT_TRUE(evaluate(both, &r_only, &jo, false));
+    for (std::size_t i = 0; i < n; ++i) {
+      EXPECT_EQ(r_both[i], r_plain[i]) << "point " << i;
+      EXPECT_NEAR(r_both[n + i], r_scalar[i], 1e-10 * (1.0 + std::abs(r_scalar[i])))
+          << "point " << i << " trial " << trial;
+      EXPECT_EQ(r_only[n + i], r_both[n + i]);
+      for (int b = 0; b < 4; ++b) {
+        for (int c = 0; c < sizes[b]; ++c) {
+          EXPECT_EQ(jb[b][sizes[b] * i + c], jp[b][sizes[b] * i + c]);
+          const double want = js[b][sizes[b] * i + c];
+          EXPECT_NEAR(jb[b][sizes[b] * (n + i) + c], want, 1e-8 * (1.0 + std::abs(want)))
+              << "point " << i << " block " << b << " index " << c << " trial " << trial;
         }
       }
     }

@@ -70,10 +70,14 @@ class SuperquadricAnalyticResidual : public ceres::SizedCostFunction<1, 3, 2, 3,
 /// once per evaluation instead of once per point, the logs and exps run vectorised over
 /// the points, and Ceres handles one block instead of n. Only valid without a robust loss
 /// (a loss would act on the block's summed squares).
+/// With a surface weight the block also holds each point's SuperquadricSurfaceResidual
+/// (residuals n..2n-1, equal to it up to rounding), computed from the same logs and exps.
 class SuperquadricBatchResidual : public ceres::CostFunction {
  public:
-  /// `q`: the points in the start model's frame.
-  explicit SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q);
+  /// `q`: the points in the start model's frame; `surface_weight` > 0 adds their weighted
+  /// first-order surface distances.
+  explicit SuperquadricBatchResidual(const std::vector<Eigen::Vector3d>& q,
+                                     double surface_weight = 0.0);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -84,6 +88,7 @@ class SuperquadricBatchResidual : public ceres::CostFunction {
 
  private:
   Eigen::Matrix3Xd q_;
+  double surface_weight_;
   // The terms at the last evaluated parameters (one residual block per problem, so Ceres
   // never evaluates it concurrently).
   mutable Eigen::MatrixXd terms_;  ///< points x the kernels' terms
