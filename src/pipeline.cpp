@@ -188,7 +188,9 @@ void fitCurrentMixture(Detection& d) {
 void selectNovelGaussians(Detection& d) {
   const SelectionParams& p = d.params.selection;
   const double u_th = std::max(p.u_th, p.u_th_noise_factor * d.tau);
-  d.selection = GreedyNoveltySelector(p).select(d.result.current_gmm, d.ref.gmm, u_th);
+  d.selection = GreedyNoveltySelector(p)
+                    .setThreads(d.params.compute.resolved())
+                    .select(d.result.current_gmm, d.ref.gmm, u_th);
   d.result.emd_before = d.selection.emd_before;
   d.result.emd_after = d.selection.emd_after;
   d.result.novel_gaussian.assign(d.result.current_gmm.size(), false);

@@ -3,7 +3,7 @@
 
 #include <atomic>
 #include <exception>
-#include <thread>
+#include <functional>
 #include <vector>
 
 namespace novelty_detection {
@@ -15,12 +15,20 @@ inline bool& insideParallelFor() {
   return inside;
 }
 
+/// Runs `work` on the caller and on up to `helpers` threads of a process-wide pool (started on
+/// first use, kept asleep between loops), and returns when every copy that started has
+/// returned. Helpers that have not started when the caller's copy returns are not waited
+/// for. While another loop holds the pool, the helpers are plain threads started for this
+/// loop. `work` must be safe to run concurrently and to run fewer times than asked.
+void runOnPool(int helpers, const std::function<void()>& work);
+
 /// Calls f(i) for i in [0, n) on up to `threads` threads (the caller plus threads - 1
 /// workers taking items in turn from a shared counter). Items must be independent and write
-/// only to their own slots, so the result does not depend on the thread count. Plain threads
-/// rather than OpenMP: no spinning workers stealing a shared machine's cores between the
-/// short loops of a superquadric recovery; starting a thread costs tens of microseconds,
-/// against milliseconds per item. Runs serially for threads <= 1, a single item, or inside
+/// only to their own slots, so the result does not depend on the thread count. Pool threads
+/// that sleep on a condition variable rather than OpenMP: no spinning workers stealing a
+/// shared machine's cores between the short loops of a superquadric recovery, and no thread
+/// started per loop (tens of microseconds each, against the EM steps' and EMD solves'
+/// fractions of a millisecond). Runs serially for threads <= 1, a single item, or inside
 /// another parallelFor. Either way, the exception of the lowest failing item, if any, is
 /// rethrown after all items ran.
 template <class F>
@@ -53,12 +61,7 @@ void parallelFor(int n, int threads, F&& f) {
     }
     insideParallelFor() = was_inside;
   };
-  const int workers = (threads < n ? threads : n) - 1;
-  std::vector<std::thread> pool;
-  pool.reserve(static_cast<std::size_t>(workers));
-  for (int t = 0; t < workers; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  runOnPool((threads < n ? threads : n) - 1, work);
   for (const auto& e : errors) {
     if (e) std::rethrow_exception(e);
   }

@@ -5,6 +5,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "common/parallel.h"
+
 namespace novelty_detection {
 
 GreedyNoveltySelector::GreedyNoveltySelector(const SelectionParams& params) : params_(params) {
@@ -26,7 +28,13 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
   if (u_th < 0) u_th = params_.u_th;
   SelectionResult out;
   const Eigen::Index n = p_in.size();
-  const EmdSolver solver(d);  // validates sizes and values on the first solve
+  // One solver per lane of the candidates' solves (a solver keeps its network); the first
+  // also solves the full problems. It validates sizes and values on its first solve.
+  const int lanes = std::max(1, threads_);
+  std::vector<EmdSolver> solvers;
+  solvers.reserve(static_cast<std::size_t>(lanes));
+  for (int k = 0; k < lanes; ++k) solvers.emplace_back(d);
+  const EmdSolver& solver = solvers.front();
   Eigen::VectorXd p = p_in;
   EmdResult full = solver.solve(p, q, true);
   out.emd_before = full.distance;
@@ -78,22 +86,39 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     if (cands.empty()) break;
     std::stable_sort(cands.begin(), cands.end(),
                      [](const Candidate& a, const Candidate& b) { return a.ub < b.ub; });
+    // Candidates in order of their upper bounds, up to one per thread at a time, each solved
+    // unless its lower bound exceeds the best value before its batch; the batch's values are
+    // then taken in order. A candidate solved only because of the batching has a value
+    // above the best by more than the ties' tolerance, so the choice is the serial one.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Index best_i = -1;
-    for (const Candidate& c : cands) {
-      if (best_i >= 0 && c.lb > best * (1.0 + 1e-9) + 1e-15) continue;
-      double value = 0.0;  // an emptied Theta has nothing left to move
-      if (mass - p[c.i] > 0) {
-        const double saved = p[c.i];
-        p[c.i] = 0.0;
-        value = solver.solve(p, q).distance;
-        p[c.i] = saved;
-        ++out.exact_evaluations;
+    std::vector<const Candidate*> batch;
+    std::vector<double> values;
+    for (std::size_t next = 0; next < cands.size();) {
+      batch.clear();
+      while (next < cands.size() && static_cast<int>(batch.size()) < lanes) {
+        const Candidate& c = cands[next++];
+        if (best_i >= 0 && c.lb > best * (1.0 + 1e-9) + 1e-15) continue;
+        batch.push_back(&c);
       }
-      const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
-      if (best_i < 0 || value < best - tol || (value <= best + tol && c.i < best_i)) {
-        best = value;
-        best_i = c.i;
+      values.assign(batch.size(), 0.0);  // an emptied Theta has nothing left to move
+      detail::parallelFor(static_cast<int>(batch.size()), lanes, [&](int k) {
+        const Eigen::Index i = batch[static_cast<std::size_t>(k)]->i;
+        if (!(mass - p[i] > 0)) return;
+        Eigen::VectorXd rest = p;
+        rest[i] = 0.0;
+        values[static_cast<std::size_t>(k)] =
+            solvers[static_cast<std::size_t>(k)].solve(rest, q).distance;
+      });
+      for (std::size_t k = 0; k < batch.size(); ++k) {
+        const Eigen::Index i = batch[k]->i;
+        if (mass - p[i] > 0) ++out.exact_evaluations;
+        const double value = values[k];
+        const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
+        if (best_i < 0 || value < best - tol || (value <= best + tol && i < best_i)) {
+          best = value;
+          best_i = i;
+        }
       }
     }
     const double decrease = current - best;

@@ -4,10 +4,12 @@
 // keeps a laser-swept cylinder whole.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <memory>
 #include <random>
 #include <stdexcept>
+#include <thread>
 
 #include "../../src/common/parallel.h"
 #include "novelty_detection/pipeline.h"
@@ -203,6 +205,27 @@ TEST(ParallelFor, EveryItemOnceAndLowestExceptionRethrown) {
     detail::parallelFor(3, 2, [&](int j) { ++inner[static_cast<std::size_t>(3 * i + j)]; });
   });
   for (int h : inner) EXPECT_EQ(h, 1);
+}
+
+// Loops started at the same time from several threads (two detectors in one process): one
+// holds the pool, the others start their own threads; every item of every loop runs once.
+TEST(ParallelFor, ConcurrentLoopsEachRunEveryItemOnce) {
+  constexpr int kCallers = 3, kLoops = 200, kItems = 40;
+  std::vector<std::vector<int>> hits(kCallers, std::vector<int>(kLoops * kItems, 0));
+  std::vector<std::thread> callers;
+  for (int c = 0; c < kCallers; ++c) {
+    callers.emplace_back([&hits, c] {
+      for (int loop = 0; loop < kLoops; ++loop) {
+        detail::parallelFor(kItems, 3, [&](int i) {
+          ++hits[static_cast<std::size_t>(c)][static_cast<std::size_t>(loop * kItems + i)];
+        });
+      }
+    });
+  }
+  for (auto& t : callers) t.join();
+  for (const auto& h : hits) {
+    EXPECT_EQ(std::count(h.begin(), h.end(), 1), static_cast<long>(h.size()));
+  }
 }
 
 TEST(SplitMerge, ResultDoesNotDependOnThreadCount) {

@@ -46,12 +46,20 @@ class GreedyNoveltySelector {
   /// params.u_th when >= 0 (the pipeline derives it from the data's noise).
   SelectionResult select(const Gmm& current, const Gmm& reference, double u_th = -1.0) const;
 
+  /// Candidates' EMD solves on up to this many threads (compute/threads); the result does
+  /// not depend on it.
+  GreedyNoveltySelector& setThreads(int threads) {
+    threads_ = threads;
+    return *this;
+  }
+
   /// Same on raw weights and a precomputed ground-distance matrix (n x m).
   SelectionResult select(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
                          const Eigen::MatrixXd& ground_distance, double u_th = -1.0) const;
 
  private:
   SelectionParams params_;
+  int threads_ = 1;
 };
 
 }  // namespace novelty_detection
