@@ -111,9 +111,10 @@ void alignToMap(const Cloud& input, Detection& d) {
 bool markSelfReturns(Detection& d) {
   d.disappearance_candidates = d.ref.kept;
   const NearestNeighbourIndex& reference_points = d.ref.points;
-  const SelfReturns self = findSelfReturns(
-      d.ref.cloud, *d.current, d.params.preprocess, d.tau,
-      [&reference_points](const Eigen::Vector3f& p) { return reference_points.distance(p); });
+  const SelfReturns self = findSelfReturns(d.ref.cloud, *d.current, d.params.preprocess, d.tau,
+                                           [&reference_points](const Eigen::Vector3f& p, double r) {
+                                             return reference_points.within(p, r);
+                                           });
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

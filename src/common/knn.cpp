@@ -9,19 +9,6 @@
 
 namespace novelty_detection {
 namespace detail {
-namespace {
-
-inline float boxDistance2(const float* q, const float* lo, const float* hi) {
-  float d2 = 0.f;
-  for (int a = 0; a < 3; ++a) {
-    const float t = std::max(std::max(lo[a] - q[a], q[a] - hi[a]), 0.f);
-    d2 += t * t;
-  }
-  return d2;
-}
-
-}  // namespace
-
 /// Builds the subtree of items[begin, end) into `nodes` (empty) in depth-first preorder, its
 /// root without a parent, and the leaf of each item position.
 void KnnTree::buildSubtree(std::vector<Item>& items, int begin, int end, std::vector<Node>* nodes,
@@ -247,6 +234,36 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
       if (dx * dx + dy * dy + dz * dz < r2) out->push_back(id_[i]);
     }
   }
+}
+
+bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
+  if (nodes_.empty() || !(radius >= 0.0)) return false;
+  const float q[3] = {p.x(), p.y(), p.z()};
+  // The test is nearestDistance()'s: sqrt of the float squared distance, in double. A box's
+  // float distance never exceeds that of a point inside it, so the same test prunes boxes.
+  const auto close = [radius](float d2) { return std::sqrt(static_cast<double>(d2)) <= radius; };
+  // Nearer child first: the first hit usually lies in the query's own leaf.
+  int stack[2 * kMaxDepth];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (node.left >= 0) {
+      const Node& l = nodes_[node.left];
+      const Node& r = nodes_[node.right];
+      const float dl = boxDistance2(q, l.lo, l.hi), dr = boxDistance2(q, r.lo, r.hi);
+      const bool left_first = dl <= dr;
+      const float d_first = left_first ? dl : dr, d_second = left_first ? dr : dl;
+      if (close(d_second)) stack[top++] = left_first ? node.right : node.left;
+      if (close(d_first)) stack[top++] = left_first ? node.left : node.right;
+      continue;
+    }
+    for (int i = node.begin; i < node.end; ++i) {
+      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
+      if (close(dx * dx + dy * dy + dz * dz)) return true;
+    }
+  }
+  return false;
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {

@@ -8,10 +8,21 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <vector>
 
 namespace novelty_detection {
 namespace detail {
+
+/// Squared float distance from q to the box [lo, hi] (0 inside).
+inline float boxDistance2(const float* q, const float* lo, const float* hi) {
+  float d2 = 0.f;
+  for (int a = 0; a < 3; ++a) {
+    const float t = std::max(std::max(lo[a] - q[a], q[a] - hi[a]), 0.f);
+    d2 += t * t;
+  }
+  return d2;
+}
 
 class KnnTree {
  public:
@@ -36,6 +47,18 @@ class KnnTree {
   /// The distance from `p` (any point) to its k-th nearest indexed point (an indexed point
   /// equal to `p` counts); infinity with fewer than k points. Exact.
   double kthNearestDistance(const Eigen::Vector3f& p, int k) const;
+
+  /// Whether nearestDistance(p) <= radius, found without the exact nearest point: the search
+  /// stops at the first point that close (the common case of a point on a mapped surface).
+  bool anyWithin(const Eigen::Vector3f& p, double radius) const;
+
+  /// Whether at least `k` indexed points q satisfy close(d2) for d2 the float squared distance
+  /// from `p` to q (computed as nearestDistance() computes it); `close` must be non-increasing
+  /// in d2 (true up to some distance). The search stops at the k-th such point: with
+  /// close(d2) = f(sqrt(d2)) < x this is f(kthNearestDistance(p, k)) < x, found without the
+  /// k-th neighbour.
+  template <class Close>
+  bool atLeast(const Eigen::Vector3f& p, int k, Close close) const;
 
   /// Positions of the indexed points closer than `radius` to `p` (squared distance below
   /// radius^2 in float), appended to `out` in the tree's order (the same for the same points
@@ -75,6 +98,32 @@ class KnnTree {
   std::vector<int> leaf_of_;      ///< tree position -> leaf node
   std::vector<Node> nodes_;
 };
+
+template <class Close>
+bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
+  if (k <= 0) return true;
+  if (nodes_.empty()) return false;
+  const float q[3] = {p.x(), p.y(), p.z()};
+  int found = 0;
+  int stack[2 * kMaxDepth];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    // A box's float distance never exceeds that of a point inside it.
+    if (!close(boxDistance2(q, node.lo, node.hi))) continue;
+    if (node.left >= 0) {
+      stack[top++] = node.right;
+      stack[top++] = node.left;
+      continue;
+    }
+    for (int i = node.begin; i < node.end; ++i) {
+      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
+      if (close(dx * dx + dy * dy + dz * dz) && ++found >= k) return true;
+    }
+  }
+  return false;
+}
 
 }  // namespace detail
 }  // namespace novelty_detection

@@ -77,30 +77,34 @@ constexpr double kFrameRatio = 2.0;
 
 /// Marks the points of `a` (sensor frame, indexed by `own`; a_index into `cloud`) that the
 /// robot's frame explains and the map does not, with d_s the distance to the nearest point of
-/// `b` (the other sweep's sensor frame) and d_m = other(p), the distance to the nearest point
-/// of the other sweep (map frame):
+/// `b` (the other sweep's sensor frame) and d_m the distance to the nearest point of the other
+/// sweep (map frame; within(p, r) says whether d_m <= r):
 ///  - d_s <= tol < d_m: within the common tolerance of the robot's frame, not of the map's;
 ///  - or d_s <= kSpacingFactor * (the point's own sampling spacing) and d_m beyond both the
 ///    novelty distance and kFrameRatio * d_s: a sparsely sampled part of the robot, seen on
 ///    other beams in the two sweeps, that the map cannot explain (it would be a novelty).
 /// Points the map explains within the novelty distance are left to the first rule alone, so
 /// static surfaces keep their share in the sweep.
-template <class MapDistance>
+template <class MapWithin>
 void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& own,
                  const detail::KnnTree& b, double tol, double novelty_distance, const Cloud& cloud,
-                 const MapDistance& other, std::vector<std::uint8_t>* mask) {
+                 const MapWithin& within, std::vector<std::uint8_t>* mask) {
   // The point's own sampling spacing: its k-th nearest point other than itself (k clamped to
   // the points there are), i.e. the (k+1)-th nearest with itself counted.
   const int k = std::min<int>(kSpacingNeighbours, static_cast<int>(own.size()) - 1) + 1;
   for (std::size_t i = 0; i < a.size(); ++i) {
     // Cheapest test first: a point the map explains within both distances fits neither rule
     // (most of a sweep), whatever the robot's frame says.
-    const double dm = other(cloud[a_index[i]].getVector3fMap());
-    if (dm <= tol && dm <= novelty_distance) continue;
+    const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
+    if (within(p, std::min(tol, novelty_distance))) continue;
     const double ds = b.nearestDistance(a[i]);
-    if (!(ds <= tol) && !(ds <= kSpacingFactor * own.kthNearestDistance(a[i], k))) continue;
-    const bool plain = ds <= tol && dm > tol;
-    const bool sparse = dm > std::max(novelty_distance, kFrameRatio * ds);
+    // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
+    if (!(ds <= tol) && own.atLeast(a[i], k, [ds](float d2) {
+          return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
+        }))
+      continue;
+    const bool plain = ds <= tol && !within(p, tol);
+    const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
     if (plain || sparse) (*mask)[a_index[i]] = 1;
   }
 }
@@ -131,7 +135,7 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m,
-                            const NearestDistance& reference_distance) {
+                            const NearestWithin& reference_within) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -165,13 +169,13 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     // Repeats of a position do not change a nearest distance: an index over every finite
     // reference point serves as well as one over the distinct ones.
     detail::KnnTree reference_map;
-    if (!reference_distance) reference_map = detail::KnnTree(pointsAt(reference, rd.unique));
+    if (!reference_within) reference_map = detail::KnnTree(pointsAt(reference, rd.unique));
     const detail::KnnTree current_map(pointsAt(current, cd.unique));
-    const auto to_reference = [&](const Eigen::Vector3f& p) {
-      return reference_distance ? reference_distance(p) : reference_map.nearestDistance(p);
+    const auto to_reference = [&](const Eigen::Vector3f& p, double r) {
+      return reference_within ? reference_within(p, r) : reference_map.anyWithin(p, r);
     };
-    const auto to_current = [&](const Eigen::Vector3f& p) {
-      return current_map.nearestDistance(p);
+    const auto to_current = [&](const Eigen::Vector3f& p, double r) {
+      return current_map.anyWithin(p, r);
     };
     const double nd = std::max(0.0, novelty_distance_m);
     markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, &s.current);

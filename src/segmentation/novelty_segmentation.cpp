@@ -50,6 +50,10 @@ double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {
   return impl_->tree.nearestDistance(p);
 }
 
+bool NearestNeighbourIndex::within(const Eigen::Vector3f& p, double radius_m) const {
+  return impl_->tree.anyWithin(p, radius_m);
+}
+
 void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
                                       std::vector<int>* out) const {
   impl_->tree.within(p, radius_m, out);

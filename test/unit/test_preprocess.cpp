@@ -146,10 +146,24 @@ TEST(KnnTree, PointQueriesMatchBruteForce) {
     }
     std::vector<float> sorted = d2;
     std::sort(sorted.begin(), sorted.end());
-    ASSERT_EQ(tree.nearestDistance(p), std::sqrt(static_cast<double>(sorted[0])));
+    const double nearest = std::sqrt(static_cast<double>(sorted[0]));
+    ASSERT_EQ(tree.nearestDistance(p), nearest);
+    // anyWithin is the test nearestDistance() <= r, at the boundary too.
+    EXPECT_TRUE(tree.anyWithin(p, nearest)) << "query " << q;
+    EXPECT_FALSE(tree.anyWithin(p, std::nextafter(nearest, -1.0))) << "query " << q;
+    for (const double r : {0.01, 0.05, 0.2}) {
+      EXPECT_EQ(tree.anyWithin(p, r), nearest <= r) << "query " << q << " r " << r;
+    }
     for (const int k : {1, 5, 17}) {
-      ASSERT_EQ(tree.kthNearestDistance(p, k), std::sqrt(static_cast<double>(sorted[k - 1])))
-          << "query " << q << " k " << k;
+      const double kth = std::sqrt(static_cast<double>(sorted[k - 1]));
+      ASSERT_EQ(tree.kthNearestDistance(p, k), kth) << "query " << q << " k " << k;
+      // atLeast(k points with 3 d < x) is 3 kth < x, at the boundary too.
+      for (const double x : {3.0 * kth, std::nextafter(3.0 * kth, 1e9), 0.05, 0.3}) {
+        EXPECT_EQ(tree.atLeast(
+                      p, k, [x](float d) { return 3.0 * std::sqrt(static_cast<double>(d)) < x; }),
+                  3.0 * kth < x)
+            << "query " << q << " k " << k << " x " << x;
+      }
     }
     const double radius = 0.03 + 0.1 * (q % 3);
     const float r2 = static_cast<float>(radius * radius);
@@ -175,6 +189,9 @@ TEST(KnnTree, PointQueriesMatchBruteForce) {
   EXPECT_TRUE(none.empty());
   const nd::detail::KnnTree empty;
   EXPECT_EQ(empty.nearestDistance(pts[0]), std::numeric_limits<double>::infinity());
+  EXPECT_FALSE(empty.anyWithin(pts[0], 1.0));
+  EXPECT_FALSE(tree.anyWithin(Eigen::Vector3f(50.f, 50.f, 50.f), 1.0));
+  EXPECT_FALSE(tree.anyWithin(pts[0], std::nan("")));
   EXPECT_EQ(empty.kthNearestDistance(pts[0], 1), std::numeric_limits<double>::infinity());
   empty.within(pts[0], 1.0, &none);
   EXPECT_TRUE(none.empty());

@@ -242,8 +242,9 @@ TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
   index.build(ref, finiteIndices(ref));
   PreprocessParams p;
   const SelfReturns built = findSelfReturns(ref, cur, p, 0.05);
-  const SelfReturns kept = findSelfReturns(
-      ref, cur, p, 0.05, [&index](const Eigen::Vector3f& q) { return index.distance(q); });
+  const SelfReturns kept =
+      findSelfReturns(ref, cur, p, 0.05,
+                      [&index](const Eigen::Vector3f& q, double r) { return index.within(q, r); });
   ASSERT_TRUE(kept.checked);
   EXPECT_GE(markedAmong(kept.current, body_cur), body_cur.size() * 95 / 100);
   EXPECT_EQ(kept.current, built.current);

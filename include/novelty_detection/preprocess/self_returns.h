@@ -59,13 +59,14 @@ Eigen::AlignedBox3f parseBodyBox(const std::string& text);
 /// of the relative rotation): a pure pitch or roll gives 0.
 double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& to);
 
-/// Distance from a map-frame point to the nearest point of a cloud (infinite when it has none).
-using NearestDistance = std::function<double(const Eigen::Vector3f&)>;
+/// Whether the nearest point of a cloud lies within `radius` [m] (distance <= radius) of a
+/// map-frame point; false when the cloud has none.
+using NearestWithin = std::function<bool(const Eigen::Vector3f&, double radius)>;
 
-/// `reference_distance` (optional): the distance to the nearest finite reference point, when
-/// the caller keeps an index of them (a reference model); else one is built here.
+/// `reference_within` (optional): that test against the finite reference points, when the
+/// caller keeps an index of them (a reference model); else one is built here.
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0,
-                            const NearestDistance& reference_distance = {});
+                            const NearestWithin& reference_within = {});
 
 }  // namespace novelty_detection

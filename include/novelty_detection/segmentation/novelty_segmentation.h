@@ -39,6 +39,9 @@ class NearestNeighbourIndex {
   bool empty() const;
   /// Distance from p to the nearest indexed point (+inf when the index is empty).
   double distance(const Eigen::Vector3f& p) const;
+  /// Whether distance(p) <= radius_m, without finding the nearest point (faster when one is
+  /// that close).
+  bool within(const Eigen::Vector3f& p, double radius_m) const;
   /// Positions in the index (0 .. points - 1, in build order) of the indexed points within
   /// radius_m of p, appended to `out` (unordered).
   void withinIds(const Eigen::Vector3f& p, double radius_m, std::vector<int>* out) const;
