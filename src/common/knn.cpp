@@ -237,33 +237,9 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
 }
 
 bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
-  if (nodes_.empty() || !(radius >= 0.0)) return false;
-  const float q[3] = {p.x(), p.y(), p.z()};
-  // The test is nearestDistance()'s: sqrt of the float squared distance, in double. A box's
-  // float distance never exceeds that of a point inside it, so the same test prunes boxes.
-  const auto close = [radius](float d2) { return std::sqrt(static_cast<double>(d2)) <= radius; };
-  // Nearer child first: the first hit usually lies in the query's own leaf.
-  int stack[2 * kMaxDepth];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
-    if (node.left >= 0) {
-      const Node& l = nodes_[node.left];
-      const Node& r = nodes_[node.right];
-      const float dl = boxDistance2(q, l.lo, l.hi), dr = boxDistance2(q, r.lo, r.hi);
-      const bool left_first = dl <= dr;
-      const float d_first = left_first ? dl : dr, d_second = left_first ? dr : dl;
-      if (close(d_second)) stack[top++] = left_first ? node.right : node.left;
-      if (close(d_first)) stack[top++] = left_first ? node.left : node.right;
-      continue;
-    }
-    for (int i = node.begin; i < node.end; ++i) {
-      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      if (close(dx * dx + dy * dy + dz * dz)) return true;
-    }
-  }
-  return false;
+  // nearestDistance()'s test: the square root of the float squared distance, in double.
+  return radius >= 0.0 &&
+         atLeast(p, 1, [radius](float d2) { return std::sqrt(static_cast<double>(d2)) <= radius; });
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {

@@ -104,17 +104,22 @@ bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
   if (k <= 0) return true;
   if (nodes_.empty()) return false;
   const float q[3] = {p.x(), p.y(), p.z()};
+  // A box's float distance never exceeds that of a point inside it, so `close` prunes boxes
+  // too; the nearer child is searched first (the first hits usually lie in the own leaf).
+  if (!close(boxDistance2(q, nodes_[0].lo, nodes_[0].hi))) return false;
   int found = 0;
   int stack[2 * kMaxDepth];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& node = nodes_[stack[--top]];
-    // A box's float distance never exceeds that of a point inside it.
-    if (!close(boxDistance2(q, node.lo, node.hi))) continue;
     if (node.left >= 0) {
-      stack[top++] = node.right;
-      stack[top++] = node.left;
+      const Node& l = nodes_[node.left];
+      const Node& r = nodes_[node.right];
+      const float dl = boxDistance2(q, l.lo, l.hi), dr = boxDistance2(q, r.lo, r.hi);
+      const bool left_first = dl <= dr;
+      if (close(left_first ? dr : dl)) stack[top++] = left_first ? node.right : node.left;
+      if (close(left_first ? dl : dr)) stack[top++] = left_first ? node.left : node.right;
       continue;
     }
     for (int i = node.begin; i < node.end; ++i) {
