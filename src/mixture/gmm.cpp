@@ -111,33 +111,43 @@ double WeightedPoints::totalWeight() const {
 
 Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads) {
   const Eigen::Index k_count = static_cast<Eigen::Index>(gmm.size());
-  // Per Gaussian: the Cholesky factor L of its covariance and log(pi) - log|2 pi Sigma| / 2.
-  std::vector<Eigen::Matrix3d> factor(static_cast<std::size_t>(k_count));
-  std::vector<double> offset(static_cast<std::size_t>(k_count));
+  // Per Gaussian, in arrays over the Gaussians: the Cholesky factor L of its covariance as
+  // forward substitution uses it (the diagonal as reciprocals), its mean, and log(pi) -
+  // log|2 pi Sigma| / 2.
+  enum { kR00, kL10, kR11, kL20, kL21, kR22, kMx, kMy, kMz, kOffset, kFields };
+  Eigen::Matrix<double, Eigen::Dynamic, kFields> g(k_count, static_cast<int>(kFields));
   for (Eigen::Index k = 0; k < k_count; ++k) {
-    const Gaussian& g = gmm.components[k];
-    Eigen::LLT<Eigen::Matrix3d> llt(g.cov);
-    Eigen::Matrix3d cov = g.cov;
+    const Gaussian& c = gmm.components[k];
+    Eigen::LLT<Eigen::Matrix3d> llt(c.cov);
+    Eigen::Matrix3d cov = c.cov;
     if (llt.info() != Eigen::Success) {
       // Not positive definite (a hand-made mixture): lift it just enough.
       cov.diagonal().array() += 1e-9 + std::abs(cov.diagonal().minCoeff());
       llt.compute(cov);
     }
-    factor[k] = llt.matrixL();
-    const double log_det = 2.0 * factor[k].diagonal().array().log().sum();
-    offset[k] = (g.weight > 0 ? std::log(g.weight) : -std::numeric_limits<double>::infinity()) -
-                0.5 * (3.0 * kLog2Pi + log_det);
+    const Eigen::Matrix3d l = llt.matrixL();
+    const double log_det = 2.0 * l.diagonal().array().log().sum();
+    g.row(k) << 1.0 / l(0, 0), l(1, 0), 1.0 / l(1, 1), l(2, 0), l(2, 1), 1.0 / l(2, 2), c.mean.x(),
+        c.mean.y(), c.mean.z(),
+        (c.weight > 0 ? std::log(c.weight) : -std::numeric_limits<double>::infinity()) -
+            0.5 * (3.0 * kLog2Pi + log_det);
   }
   Eigen::MatrixXd out(k_count, points.cols());
   detail::parallelFor(pointBlocks(points.cols()), threads, [&](int b) {
-    const Eigen::Index begin = b * kPointBlock;
-    const Eigen::Index len = std::min(points.cols(), begin + kPointBlock) - begin;
-    Eigen::Matrix3Xd d(3, len);
-    for (Eigen::Index k = 0; k < k_count; ++k) {
-      d = points.middleCols(begin, len).colwise() - gmm.components[k].mean;
-      factor[k].triangularView<Eigen::Lower>().solveInPlace(d);
-      out.row(k).segment(begin, len) =
-          (offset[k] - 0.5 * d.colwise().squaredNorm().array()).matrix();
+    const Eigen::Index end = std::min(points.cols(), (b + 1) * kPointBlock);
+    for (Eigen::Index i = b * kPointBlock; i < end; ++i) {
+      const double px = points(0, i), py = points(1, i), pz = points(2, i);
+      double* column = out.col(i).data();
+      // y = L^-1 (p - mean) by forward substitution (the operations of Eigen's triangular
+      // solve, in its order, so the values are the same), then the log density; all
+      // Gaussians of one point at a time, so each column is written contiguously.
+      for (Eigen::Index k = 0; k < k_count; ++k) {
+        const double dx = px - g(k, kMx), dy = py - g(k, kMy), dz = pz - g(k, kMz);
+        const double y0 = dx * g(k, kR00);
+        const double y1 = (dy - g(k, kL10) * y0) * g(k, kR11);
+        const double y2 = (dz - g(k, kL20) * y0 - g(k, kL21) * y1) * g(k, kR22);
+        column[k] = g(k, kOffset) - 0.5 * (y0 * y0 + y1 * y1 + y2 * y2);
+      }
     }
   });
   return out;
