@@ -4,10 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <iterator>
 #include <stdexcept>
 #include <string>
-#include <tuple>
 #include <utility>
 
 #include "common/knn.h"
@@ -26,32 +27,37 @@ Indices finiteIndices(const Cloud& cloud) {
 
 Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* duplicates,
                          Indices* duplicate_of) {
-  // Sort by coordinates (ties by index, so the first occurrence leads each run of equals).
-  Indices order = indices;
-  auto key = [&cloud](int i) { return std::make_tuple(cloud[i].x, cloud[i].y, cloud[i].z, i); };
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
-  std::vector<std::pair<int, int>> repeats;  // (duplicate, first occurrence)
-  for (std::size_t k = 1, first = 0; k < order.size(); ++k) {
-    const PointT& a = cloud[order[first]];
-    const PointT& b = cloud[order[k]];
-    if (a.x == b.x && a.y == b.y && a.z == b.z)
-      repeats.emplace_back(order[k], order[first]);
-    else
-      first = k;
-  }
-  std::sort(repeats.begin(), repeats.end());
   if (duplicates) duplicates->clear();
   if (duplicate_of) duplicate_of->clear();
+  // An open-addressing table of first occurrences, keyed by the coordinates (+0 added, so
+  // that -0 and 0, equal as numbers, share a key): the indices ascend, so the first one
+  // seen of each point is its first occurrence.
+  std::size_t slots = 16;
+  while (slots < 2 * indices.size()) slots *= 2;
+  std::vector<int> table(slots, -1);
+  const auto key = [&cloud](int i) {
+    std::uint32_t k[3];
+    const float c[3] = {cloud[i].x + 0.f, cloud[i].y + 0.f, cloud[i].z + 0.f};
+    std::memcpy(k, c, sizeof(k));
+    std::uint64_t h = (k[0] * 0x9E3779B97F4A7C15ull) ^ (k[1] * 0xC2B2AE3D27D4EB4Full) ^
+                      (k[2] * 0x165667B19E3779F9ull);
+    return h ^ (h >> 29);
+  };
   Indices unique;
-  unique.reserve(indices.size() - repeats.size());
-  std::size_t r = 0;
+  unique.reserve(indices.size());
   for (int i : indices) {
-    if (r < repeats.size() && repeats[r].first == i) {
-      if (duplicates) duplicates->push_back(i);
-      if (duplicate_of) duplicate_of->push_back(repeats[r].second);
-      ++r;
-    } else {
+    const PointT& p = cloud[i];
+    std::size_t slot = key(i) & (slots - 1);
+    for (; table[slot] >= 0; slot = (slot + 1) & (slots - 1)) {
+      const PointT& q = cloud[table[slot]];
+      if (p.x == q.x && p.y == q.y && p.z == q.z) break;
+    }
+    if (table[slot] < 0) {
+      table[slot] = i;
       unique.push_back(i);
+    } else {
+      if (duplicates) duplicates->push_back(i);
+      if (duplicate_of) duplicate_of->push_back(table[slot]);
     }
   }
   return unique;

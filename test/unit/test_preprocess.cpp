@@ -71,6 +71,39 @@ TEST(Preprocess, RepeatedPointsAreSetAsideWithTheirFirstOccurrence) {
   EXPECT_EQ(nd::removeDuplicates(cloud, nd::Indices{2, 3, 5}, &dup, &of), (nd::Indices{2, 3}));
   EXPECT_EQ(dup, (nd::Indices{5}));
   EXPECT_EQ(of, (nd::Indices{2}));
+  // Many repeats on a coarse grid (signed zeros included), against a quadratic search for
+  // each point's first occurrence.
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> cell(-3, 3);
+  nd::Cloud grid;
+  for (int k = 0; k < 3000; ++k) {
+    auto coord = [&] { return k % 7 == 0 ? -0.f : 0.25f * static_cast<float>(cell(rng)); };
+    grid.push_back(nd::PointT(coord(), coord(), coord()));
+  }
+  const nd::Indices all = nd::finiteIndices(grid);
+  const nd::Indices distinct = nd::removeDuplicates(grid, all, &dup, &of);
+  nd::Indices want_unique, want_dup, want_of;
+  for (int i : all) {
+    int first = i;
+    for (int j : all) {
+      if (j >= i) break;
+      const auto &p = grid[i], &q = grid[j];
+      if (p.x == q.x && p.y == q.y && p.z == q.z) {
+        first = j;
+        break;
+      }
+    }
+    if (first == i) {
+      want_unique.push_back(i);
+    } else {
+      want_dup.push_back(i);
+      want_of.push_back(first);
+    }
+  }
+  EXPECT_EQ(distinct, want_unique);
+  EXPECT_EQ(dup, want_dup);
+  EXPECT_EQ(of, want_of);
+  EXPECT_LT(distinct.size(), 400u);  // the grid has 343 cells
 }
 
 TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
