@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/parallel.h"
 #include "novelty_detection/preprocess/preprocess.h"
 
 namespace novelty_detection {
@@ -149,7 +150,8 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 }
 
 GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
-                            const PreprocessParams& params, const Eigen::Vector3f* sensor_origin) {
+                            const PreprocessParams& params, const Eigen::Vector3f* sensor_origin,
+                            int threads) {
   params.validate();
   GroundPlane ground;
   std::vector<Eigen::Vector3d> pts;
@@ -197,9 +199,11 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
       if (p.z() <= z[q]) low.push_back(p);
   }
   std::uniform_int_distribution<int> pick_low(0, std::max(0, static_cast<int>(low.size()) - 1));
-  // A near-horizontal plane through three points, scored on the sample.
-  auto hypothesis = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                        const Eigen::Vector3d& c) -> std::optional<Hypothesis> {
+  // A near-horizontal plane through three points (not below the sensor), and its score on
+  // the sample. The triples are drawn in turn and the planes scored afterwards, on up to
+  // `threads` threads (the scores do not depend on the draws).
+  auto plane = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                   const Eigen::Vector3d& c) -> std::optional<Hypothesis> {
     Eigen::Vector3d normal = (b - a).cross(c - a);
     const double len = normal.norm();
     if (!(len > 1e-12)) return std::nullopt;  // collinear or repeated points
@@ -208,16 +212,25 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     if (normal.z() < 0) normal = -normal;
     const double d = -normal.dot(a);
     if (has_origin && normal.dot(origin) + d <= t) return std::nullopt;  // not below the sensor
-    int support = 0;
-    double z = 0.0;
-    for (const auto& p : sample) {
-      if (std::abs(normal.dot(p) + d) <= t) ++support, z += p.z();
-    }
-    return Hypothesis{normal, d, support, support > 0 ? z / support : 0.0};
+    return Hypothesis{normal, d, 0, 0.0};
+  };
+  const auto score = [&](std::vector<Hypothesis>* planes, std::size_t from) {
+    detail::parallelFor(static_cast<int>(planes->size() - from), threads, [&](int k) {
+      Hypothesis& h = (*planes)[from + static_cast<std::size_t>(k)];
+      int support = 0;
+      double z = 0.0;
+      for (const auto& p : sample) {
+        const bool in = std::abs(h.normal.dot(p) + h.d) <= t;
+        support += in;
+        z += in ? p.z() : 0.0;  // adding 0 leaves the sum as it is
+      }
+      h.support = support;
+      h.inlier_z = support > 0 ? z / support : 0.0;
+    });
   };
   std::vector<Hypothesis> hyps;
   // Triples tilted beyond the angle cost only a cross product: draw until max_iterations
-  // hypotheses were scored, or 20 times that many triples.
+  // planes were found, or 20 times that many triples.
   for (int draws = 0; draws < 20 * params.ground_max_iterations &&
                       static_cast<int>(hyps.size()) < params.ground_max_iterations;
        ++draws) {
@@ -227,8 +240,9 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     const Eigen::Vector3d& a = set[dist(rng)];
     const Eigen::Vector3d& b = set[dist(rng)];
     const Eigen::Vector3d& c = set[dist(rng)];
-    if (const auto h = hypothesis(a, b, c)) hyps.push_back(*h);
+    if (const auto h = plane(a, b, c)) hyps.push_back(*h);
   }
+  score(&hyps, 0);
   if (hyps.empty()) return ground;
 
   // The lowest strongly supported surface: planes in order of support, a later one taking
@@ -269,8 +283,9 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
       const Eigen::Vector3d& a = local[pick_local(rng)];
       const Eigen::Vector3d& b = local[pick_local(rng)];
       const Eigen::Vector3d& c = local[pick_local(rng)];
-      if (const auto h = hypothesis(a, b, c)) candidates.push_back(*h);
+      if (const auto h = plane(a, b, c)) candidates.push_back(*h);
     }
+    score(&candidates, 1);
   }
   for (const auto& h : hyps) {
     if (&h != chosen && std::abs(h.inlier_z - start.inlier_z) <= 3.0 * t) candidates.push_back(h);
@@ -280,10 +295,14 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   candidates.resize(std::min<std::size_t>(candidates.size(), 8));
   // Refinement can drift (a fixed point tilted through the clutter near the robot); a refined
   // plane the sensor does not lie above is no floor either.
+  std::vector<Refined> refinements(candidates.size());
+  detail::parallelFor(static_cast<int>(candidates.size()), threads, [&](int k) {
+    refinements[static_cast<std::size_t>(k)] =
+        refine(sample, centre, candidates[static_cast<std::size_t>(k)], t, cos_max);
+  });
   Refined refined;
   bool have_refined = false;
-  for (const Hypothesis& h : candidates) {
-    const Refined r = refine(sample, centre, h, t, cos_max);
+  for (const Refined& r : refinements) {
     if (has_origin && r.normal.dot(origin) + r.d <= t) continue;
     if (!have_refined || r.support / r.sigma > refined.support / refined.sigma) refined = r;
     have_refined = true;

@@ -186,7 +186,7 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f
   }
   if (params_.ground_removal) {
     result.ground =
-        findGroundPlane(cloud, current, params_, origin_known ? &sensor_origin : nullptr);
+        findGroundPlane(cloud, current, params_, origin_known ? &sensor_origin : nullptr, threads_);
   }
   // current and the ground inliers are both ascending: a linear set difference.
   result.kept.reserve(current.size());

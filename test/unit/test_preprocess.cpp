@@ -321,6 +321,11 @@ TEST_P(GroundRemoval, RecoversFloorKeepsBox) {
   std::iota(all.begin(), all.end(), 0);
   const nd::GroundPlane g = nd::findGroundPlane(scene.cloud, all, p);
   ASSERT_TRUE(g.found);
+  // Scored and refined on three threads: the same plane and inliers, bit for bit.
+  const nd::GroundPlane g3 = nd::findGroundPlane(scene.cloud, all, p, nullptr, 3);
+  EXPECT_TRUE(g3.coefficients == g.coefficients);
+  EXPECT_EQ(g3.inliers, g.inliers);
+  EXPECT_EQ(g3.noise_sigma_m, g.noise_sigma_m);
   EXPECT_NEAR(g.coefficients.head<3>().norm(), 1.0, 1e-9);
   EXPECT_GT(g.coefficients(2), 0.0);
   EXPECT_LT(angleToZDeg(g.coefficients), 1.0);

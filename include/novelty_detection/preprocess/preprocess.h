@@ -77,10 +77,11 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices, double d
 ///     through the sensor, and near-horizontal lines (walls all around at sensor height)
 ///     can hold more points than the floor.
 /// found = false when fewer than 3 points, no hypothesis within the angle, or fewer than
-/// ground_min_fraction of the points on the plane. Deterministic (fixed seed).
+/// ground_min_fraction of the points on the plane. Deterministic (fixed seed); the planes are
+/// scored and refined on up to `threads` threads, with the same result.
 GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
                             const PreprocessParams& params,
-                            const Eigen::Vector3f* sensor_origin = nullptr);
+                            const Eigen::Vector3f* sensor_origin = nullptr, int threads = 1);
 
 /// Chains the steps with one parameter struct: finite -> sparse outliers -> ground.
 class Preprocessor {
