@@ -21,6 +21,10 @@ constexpr Eigen::Index kPointBlock = 1024;
 /// Number of kPointBlock blocks over n points.
 int pointBlocks(Eigen::Index n) { return static_cast<int>((n + kPointBlock - 1) / kPointBlock); }
 
+/// Threads for an E-step over n points: one below four blocks, where handing blocks to
+/// another thread (once per EM iteration) costs about what it saves.
+int stepThreads(Eigen::Index n, int threads) { return n >= 4 * kPointBlock ? threads : 1; }
+
 void checkData(const WeightedPoints& data) {
   if (data.weights.size() && data.weights.size() != data.points.cols()) {
     throw std::invalid_argument("GMM: weights size does not match the number of points");
@@ -51,7 +55,7 @@ void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse, int threads) {
   lse.resize(a.cols());
   const Eigen::Index rows = a.rows();
   const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, rows));
-  detail::parallelFor(pointBlocks(a.cols()), threads, [&](int b) {
+  detail::parallelFor(pointBlocks(a.cols()), stepThreads(a.cols(), threads), [&](int b) {
     const Eigen::Index end = std::min(a.cols(), (b + 1) * kPointBlock);
     for (Eigen::Index n = b * kPointBlock; n < end; ++n) {
       double* col = a.col(n).data();
@@ -133,7 +137,7 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
             0.5 * (3.0 * kLog2Pi + log_det);
   }
   Eigen::MatrixXd out(k_count, points.cols());
-  detail::parallelFor(pointBlocks(points.cols()), threads, [&](int b) {
+  detail::parallelFor(pointBlocks(points.cols()), stepThreads(points.cols(), threads), [&](int b) {
     const Eigen::Index end = std::min(points.cols(), (b + 1) * kPointBlock);
     for (Eigen::Index i = b * kPointBlock; i < end; ++i) {
       const double px = points(0, i), py = points(1, i), pz = points(2, i);
