@@ -109,7 +109,7 @@ struct EmdSolver::Network {
 
   /// Lighter side `s` (sum s <= sum t) supplies all of it; `t` accepts at most t_j.
   EmdResult solve(const Eigen::VectorXd& s, const Eigen::VectorXd& t, bool with_flows,
-                  bool transpose) {
+                  bool with_prices, bool transpose) {
     const double ss = s.sum(), ts = t.sum();
     // Accept a hair more than t so that round-off never makes equal masses infeasible.
     const double slack = 1.0 + 1e-12;
@@ -142,12 +142,13 @@ struct EmdSolver::Network {
           }
         }
       }
-      if (!transpose) {
-        // LEMON's potentials: reduced costs d_ij + pi_i - pi_j >= 0, pi <= 0 (GEQ form).
-        r.capacity_prices.resize(m);
-        for (Eigen::Index j = 0; j < m; ++j)
-          r.capacity_prices[j] = std::max(0.0, -simplex->potential(sinks[j]));
-      }
+    }
+    if ((with_flows || with_prices) && !transpose) {
+      // LEMON's potentials: reduced costs d_ij + pi_i - pi_j >= 0, pi <= 0 (GEQ form).
+      r.capacity_prices.resize(static_cast<Eigen::Index>(sinks.size()));
+      for (std::size_t j = 0; j < sinks.size(); ++j)
+        r.capacity_prices[static_cast<Eigen::Index>(j)] =
+            std::max(0.0, -simplex->potential(sinks[j]));
     }
     return r;
   }
@@ -164,6 +165,15 @@ EmdSolver& EmdSolver::operator=(EmdSolver&&) noexcept = default;
 
 EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
                            bool with_flows) const {
+  return solve(p, q, with_flows, false);
+}
+
+EmdResult EmdSolver::solveWithPrices(const Eigen::VectorXd& p, const Eigen::VectorXd& q) const {
+  return solve(p, q, false, true);
+}
+
+EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, bool with_flows,
+                           bool with_prices) const {
   checkWeights(p, d_.rows(), "first mixture");
   checkWeights(q, d_.cols(), "second mixture");
   EmdResult r;
@@ -174,10 +184,10 @@ EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
   }
   if (ps <= qs) {
     if (!forward_) forward_ = std::make_unique<Network>(d_);
-    return forward_->solve(p, q, with_flows, false);
+    return forward_->solve(p, q, with_flows, with_prices, false);
   }
   if (!backward_) backward_ = std::make_unique<Network>(d_.transpose());
-  return backward_->solve(q, p, with_flows, true);
+  return backward_->solve(q, p, with_flows, with_prices, true);
 }
 
 double emd(const Gmm& a, const Gmm& b, GroundDistance type) {

@@ -92,28 +92,53 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     // above the best by more than the ties' tolerance, so the choice is the serial one.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Index best_i = -1;
+    // Every candidate solved yields capacity prices, and with them another dual solution of
+    // this round's problems (dual feasibility does not depend on the supplies): its bound
+    // for the candidates still to come, (sum_k p_k alpha_k - q.beta - p_i alpha_i) / rest.
+    struct Dual {
+      Eigen::VectorXd alpha;
+      double total;
+    };
+    std::vector<Dual> duals;
+    auto lowerBound = [&](const Candidate& c) {
+      double lb = c.lb;
+      const double rest = mass - p[c.i];
+      if (!(rest > 0) || rest > q_mass) return lb;
+      for (const Dual& dual : duals) {
+        const double v = (dual.total - p[c.i] * dual.alpha[c.i]) / rest;
+        lb = std::max(lb, v - 1e-9 * std::abs(v));  // round-off margin, as above
+      }
+      return lb;
+    };
     std::vector<const Candidate*> batch;
-    std::vector<double> values;
+    std::vector<EmdResult> results;
     for (std::size_t next = 0; next < cands.size();) {
       batch.clear();
       while (next < cands.size() && static_cast<int>(batch.size()) < lanes) {
         const Candidate& c = cands[next++];
-        if (best_i >= 0 && c.lb > best * (1.0 + 1e-9) + 1e-15) continue;
+        if (best_i >= 0 && lowerBound(c) > best * (1.0 + 1e-9) + 1e-15) continue;
         batch.push_back(&c);
       }
-      values.assign(batch.size(), 0.0);  // an emptied Theta has nothing left to move
+      results.assign(batch.size(), EmdResult());  // an emptied Theta has nothing left to move
       detail::parallelFor(static_cast<int>(batch.size()), lanes, [&](int k) {
         const Eigen::Index i = batch[static_cast<std::size_t>(k)]->i;
         if (!(mass - p[i] > 0)) return;
         Eigen::VectorXd rest = p;
         rest[i] = 0.0;
-        values[static_cast<std::size_t>(k)] =
-            solvers[static_cast<std::size_t>(k)].solve(rest, q).distance;
+        results[static_cast<std::size_t>(k)] =
+            solvers[static_cast<std::size_t>(k)].solveWithPrices(rest, q);
       });
       for (std::size_t k = 0; k < batch.size(); ++k) {
         const Eigen::Index i = batch[k]->i;
         if (mass - p[i] > 0) ++out.exact_evaluations;
-        const double value = values[k];
+        const double value = results[k].distance;
+        const Eigen::VectorXd& beta = results[k].capacity_prices;
+        if (beta.size() == q.size()) {
+          Dual dual;
+          dual.alpha = (d.rowwise() + beta.transpose()).rowwise().minCoeff();
+          dual.total = p.dot(dual.alpha) - q.dot(beta);
+          duals.push_back(std::move(dual));
+        }
         const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
         if (best_i < 0 || value < best - tol || (value <= best + tol && i < best_i)) {
           best = value;

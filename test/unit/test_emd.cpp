@@ -190,6 +190,11 @@ TEST(Emd, CapacityPricesBoundEveryRemoval) {
     }
     ASSERT_EQ(full.capacity_prices.size(), m) << "trial " << trial;
     EXPECT_TRUE((full.capacity_prices.array() >= 0.0).all());
+    // The prices alone: the same solve without the flows.
+    const EmdResult priced = solver.solveWithPrices(p, q);
+    EXPECT_EQ(priced.cost, full.cost);
+    EXPECT_TRUE(priced.capacity_prices == full.capacity_prices);
+    EXPECT_EQ(priced.flows.size(), 0);
     const Eigen::VectorXd alpha =
         (d.rowwise() + full.capacity_prices.transpose()).rowwise().minCoeff();
     const double dual = p.dot(alpha) - q.dot(full.capacity_prices);

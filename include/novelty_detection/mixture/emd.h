@@ -36,8 +36,8 @@ struct EmdResult {
   double cost = 0.0;      ///< sum f_ij d_ij
   double flow = 0.0;      ///< sum f_ij = min(sum p, sum q)
   Eigen::MatrixXd flows;  ///< f_ij, filled when requested
-  /// With the flows, when the first mixture is the lighter side (it ships all its mass and
-  /// the second's weights are capacities): the optimal dual's price beta_j >= 0 of each of
+  /// With the flows or the prices, when the first mixture is the lighter side (it ships all its
+  /// mass and the second's weights are capacities): the optimal dual's price beta_j >= 0 of each of
   /// the second's capacities (empty otherwise). For any weights p' of the first, with
   /// alpha_i = min_j (d_ij + beta_j), sum_i p'_i alpha_i - sum_j q_j beta_j is a lower bound
   /// on the cost of moving p' (weak duality); it equals the cost for the p solved.
@@ -57,10 +57,14 @@ class EmdSolver {
   /// negative or non-finite weights.
   EmdResult solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
                   bool with_flows = false) const;
+  /// solve() with the capacity prices but not the flows.
+  EmdResult solveWithPrices(const Eigen::VectorXd& p, const Eigen::VectorXd& q) const;
 
   const Eigen::MatrixXd& groundDistance() const { return d_; }
 
  private:
+  EmdResult solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, bool with_flows,
+                  bool with_prices) const;
   struct Network;
   Eigen::MatrixXd d_;
   mutable std::unique_ptr<Network> forward_;   // p supplies, q accepts

@@ -15,9 +15,11 @@
 // a removal only zeroes a supply. Candidates are ranked by an upper bound from the current
 // optimal flow (drop row i: UB_i = (C - c_i) / (m - p_i), a feasible flow of the smaller
 // problem) and pruned by a lower bound (every remaining unit of Theta travels at least to
-// its nearest Gamma: LB_i = sum_{k != i} p_k min_j d_kj / (m - p_i)); only candidates whose
-// LB beats the best exact value found so far are solved exactly. The result is the same as
-// evaluating every candidate.
+// its nearest Gamma: LB_i = sum_{k != i} p_k min_j d_kj / (m - p_i)) and by the dual
+// solutions at hand (the current optimum's, then each solved candidate's: dual feasibility
+// does not depend on the supplies, so each bounds every other removal by weak duality); only
+// candidates whose LB beats the best exact value found so far are solved exactly. The result
+// is the same as evaluating every candidate.
 #pragma once
 
 #include <Eigen/Core>
