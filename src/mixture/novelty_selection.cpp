@@ -35,6 +35,7 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
   solvers.reserve(static_cast<std::size_t>(lanes));
   for (int k = 0; k < lanes; ++k) solvers.emplace_back(d);
   const EmdSolver& solver = solvers.front();
+  std::vector<Eigen::VectorXd> lane_p(static_cast<std::size_t>(lanes));
   Eigen::VectorXd p = p_in;
   EmdResult full = solver.solve(p, q, true);
   out.emd_before = full.distance;
@@ -52,16 +53,24 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     const double mass = p.sum();
     const double near_cost = p.dot(nearest);
     const Eigen::VectorXd row_cost = (full.flows.cwiseProduct(d)).rowwise().sum();
-    // The full solve's dual (EmdResult::capacity_prices) bounds every removal from below:
-    // alpha_i = min_j (d_ij + beta_j) stays feasible when a source is emptied, so removing
-    // i costs at least dual - p_i alpha_i. Tight where i's flow went to unfilled capacity.
-    Eigen::VectorXd alpha;
-    double dual = 0.0;
-    const bool priced = full.capacity_prices.size() == q.size();
-    if (priced) {
-      alpha = (d.rowwise() + full.capacity_prices.transpose()).rowwise().minCoeff();
-      dual = p.dot(alpha) - q.dot(full.capacity_prices);
-    }
+    // Dual solutions of this round's problems (capacity prices beta, EmdResult, with alpha_i =
+    // min_j (d_ij + beta_j)): dual feasibility does not depend on the supplies, so each bounds
+    // every removal from below by weak duality, (sum_k p_k alpha_k - q.beta - p_i alpha_i) /
+    // rest, tight where i's flow went to unfilled capacity. The full solve's first, then
+    // every solved candidate's.
+    struct Dual {
+      Eigen::VectorXd alpha;
+      double total;
+    };
+    std::vector<Dual> duals;
+    auto addDual = [&](const Eigen::VectorXd& beta) {
+      if (beta.size() != q.size()) return;  // solved transposed: no prices
+      Dual dual;
+      dual.alpha = (d.rowwise() + beta.transpose()).rowwise().minCoeff();
+      dual.total = p.dot(dual.alpha) - q.dot(beta);
+      duals.push_back(std::move(dual));
+    };
+    addDual(full.capacity_prices);
     struct Candidate {
       Eigen::Index i;
       double ub, lb;
@@ -75,11 +84,6 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
         c.ub = std::max(0.0, full.cost - row_cost[i]) / rest;
         // The lower bound holds while the remaining Theta is the lighter side.
         c.lb = rest <= q_mass ? std::max(0.0, near_cost - p[i] * nearest[i]) / rest : 0.0;
-        if (priced && rest <= q_mass) {
-          // Round-off margin: the bound only skips solves, it must never exceed the value.
-          const double dual_lb = (dual - p[i] * alpha[i]) / rest;
-          c.lb = std::max(c.lb, dual_lb - 1e-9 * std::abs(dual_lb));
-        }
       }
       cands.push_back(c);
     }
@@ -92,24 +96,19 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     // above the best by more than the ties' tolerance, so the choice is the serial one.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Index best_i = -1;
-    // Every candidate solved yields capacity prices, and with them another dual solution of
-    // this round's problems (dual feasibility does not depend on the supplies): its bound
-    // for the candidates still to come, (sum_k p_k alpha_k - q.beta - p_i alpha_i) / rest.
-    struct Dual {
-      Eigen::VectorXd alpha;
-      double total;
-    };
-    std::vector<Dual> duals;
     auto lowerBound = [&](const Candidate& c) {
       double lb = c.lb;
       const double rest = mass - p[c.i];
       if (!(rest > 0) || rest > q_mass) return lb;
       for (const Dual& dual : duals) {
+        // Round-off margin: the bound only skips solves, it must never exceed the value.
         const double v = (dual.total - p[c.i] * dual.alpha[c.i]) / rest;
-        lb = std::max(lb, v - 1e-9 * std::abs(v));  // round-off margin, as above
+        lb = std::max(lb, v - 1e-9 * std::abs(v));
       }
       return lb;
     };
+    // Each lane's weights: this round's, the candidate's emptied while it is solved.
+    for (Eigen::VectorXd& w : lane_p) w = p;
     std::vector<const Candidate*> batch;
     std::vector<EmdResult> results;
     for (std::size_t next = 0; next < cands.size();) {
@@ -123,22 +122,17 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
       detail::parallelFor(static_cast<int>(batch.size()), lanes, [&](int k) {
         const Eigen::Index i = batch[static_cast<std::size_t>(k)]->i;
         if (!(mass - p[i] > 0)) return;
-        Eigen::VectorXd rest = p;
-        rest[i] = 0.0;
+        Eigen::VectorXd& w = lane_p[static_cast<std::size_t>(k)];
+        w[i] = 0.0;
         results[static_cast<std::size_t>(k)] =
-            solvers[static_cast<std::size_t>(k)].solveWithPrices(rest, q);
+            solvers[static_cast<std::size_t>(k)].solveWithPrices(w, q);
+        w[i] = p[i];
       });
       for (std::size_t k = 0; k < batch.size(); ++k) {
         const Eigen::Index i = batch[k]->i;
         if (mass - p[i] > 0) ++out.exact_evaluations;
         const double value = results[k].distance;
-        const Eigen::VectorXd& beta = results[k].capacity_prices;
-        if (beta.size() == q.size()) {
-          Dual dual;
-          dual.alpha = (d.rowwise() + beta.transpose()).rowwise().minCoeff();
-          dual.total = p.dot(dual.alpha) - q.dot(beta);
-          duals.push_back(std::move(dual));
-        }
+        addDual(results[k].capacity_prices);
         const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
         if (best_i < 0 || value < best - tol || (value <= best + tol && i < best_i)) {
           best = value;
