@@ -46,3 +46,34 @@ suite_noise_matches() {
   [ -f "$1/scene_000/scene.json" ] &&
     grep -Eq "\"noise_variance_m2\": ${want//./\\.},?$" "$1/scene_000/scene.json"
 }
+
+# simulate_once DIR ARGS...: simulate_scans ARGS (without a bag) into DIR, unless DIR holds
+# scenes the current simulate_scans made (DIR/.done newer than the program).
+simulate_once() {
+  local dir="$1" sim="$WS/devel/lib/novelty_detection/simulate_scans"
+  shift
+  if [ ! -f "$dir/.done" ] || [ "$dir/.done" -ot "$sim" ]; then
+    rm -rf "$dir"
+    log "simulating $dir"
+    "$sim" --out "$dir" "$@" --no-bag > /dev/null
+    touch "$dir/.done"
+  fi
+}
+
+# docs_table NAME FILE: FILE becomes the text of docs/evaluation.md between its markers
+# <!-- NAME:begin --> and <!-- NAME:end --> (a warning, nothing written, without them).
+docs_table() {
+  /usr/bin/python3 - "$REPO/docs/evaluation.md" "$1" "$2" <<'PY'
+import sys
+doc, name, path = sys.argv[1:4]
+table = open(path).read().rstrip("\n")
+begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+text = open(doc).read()
+if begin in text and end in text:
+    a, b = text.index(begin) + len(begin), text.index(end)
+    open(doc, "w").write(text[:a] + "\n" + table + "\n" + text[b:])
+    print(f"docs/evaluation.md: {name} updated", file=sys.stderr)
+else:
+    print(f"docs/evaluation.md: no {name} markers, not updated", file=sys.stderr)
+PY
+}

@@ -25,19 +25,9 @@ if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
 fi
 mkdir -p "$OUT"
 
-simulate() {  # dir args...
-  local dir="$1"
-  shift
-  if [ ! -f "$dir/.done" ] || [ "$dir/.done" -ot "$BIN/simulate_scans" ]; then
-    rm -rf "$dir"
-    log "simulating $dir"
-    "$BIN/simulate_scans" --out "$dir" "$@" --no-bag > /dev/null
-    touch "$dir/.done"
-  fi
-}
-simulate "$OUT/scenes/suite" --suite 30 --seed 1
-simulate "$OUT/scenes/viewpoint" --suite 36 --suite-kind viewpoint --seed 1
-simulate "$OUT/scenes/large" --seed 2 --layout office --lines 278
+simulate_once "$OUT/scenes/suite" --suite 30 --seed 1
+simulate_once "$OUT/scenes/viewpoint" --suite 36 --suite-kind viewpoint --seed 1
+simulate_once "$OUT/scenes/large" --seed 2 --layout office --lines 278
 
 # 1. The suites, one thread and two.
 for threads in 1 2; do
@@ -134,15 +124,6 @@ LOAD="$(cut -d' ' -f1 /proc/loadavg)"
 mkdir -p "$REPO/bench/results"
 cp "$OUT/speed.md" "$REPO/bench/results/speed.md"
 if [ "$DOCS_UPDATE" = 1 ]; then
-  doc="$REPO/docs/evaluation.md"
-  /usr/bin/python3 - "$doc" "$OUT/speed.md" <<'PY'
-import sys
-doc, table = sys.argv[1], open(sys.argv[2]).read().rstrip("\n")
-text = open(doc).read()
-begin, end = "<!-- speed-table:begin -->", "<!-- speed-table:end -->"
-a, b = text.index(begin) + len(begin), text.index(end)
-open(doc, "w").write(text[:a] + "\n" + table + "\n" + text[b:])
-PY
-  log "docs/evaluation.md speed table rewritten"
+  docs_table speed-table "$OUT/speed.md"
 fi
 cat "$OUT/speed.md"

@@ -144,19 +144,7 @@ PY
 if [ "$DOCS_UPDATE" = 1 ]; then
   mkdir -p "$REPO/bench/results"
   cp "$OUT/viewpoint.md" "$REPO/bench/results/viewpoint.md"
-  /usr/bin/python3 - "$REPO/docs/evaluation.md" "$OUT/viewpoint.md" <<'PY'
-import sys
-readme, table = sys.argv[1], open(sys.argv[2]).read()
-begin, end = "<!-- viewpoint-table:begin -->", "<!-- viewpoint-table:end -->"
-text = open(readme).read()
-if begin in text and end in text:
-    head, rest = text.split(begin, 1)
-    _, tail = rest.split(end, 1)
-    open(readme, "w").write(head + begin + "\n" + table + end + tail)
-    print("docs/evaluation.md: viewpoint table updated", file=sys.stderr)
-else:
-    print("docs/evaluation.md: no viewpoint-table markers, not updated", file=sys.stderr)
-PY
+  docs_table viewpoint-table "$OUT/viewpoint.md"
 fi
 if [ "$DOCS_UPDATE" = 1 ]; then
   log "table: $OUT/viewpoint.md (copied to bench/results/viewpoint.md)"

@@ -25,18 +25,13 @@ if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
 fi
 mkdir -p "$OUT"
 printf 'compute:\n  threads: 1\n' > "$OUT/one_thread.yaml"
-if [ ! -f "$SPEED/suite/.done" ]; then
-  "$BIN/simulate_scans" --out "$SPEED/suite" --suite 30 --seed 1 --no-bag > /dev/null
-  touch "$SPEED/suite/.done"
-fi
-if [ ! -f "$SPEED/large/.done" ]; then
-  "$BIN/simulate_scans" --out "$SPEED/large" --seed 2 --layout office --lines 278 --no-bag \
-    > /dev/null
-  touch "$SPEED/large/.done"
-fi
+# The scenes of scripts/evaluate_speed.sh.
+simulate_once "$SPEED/suite" --suite 30 --seed 1
+simulate_once "$SPEED/large" --seed 2 --layout office --lines 278
 
-# case name, runs, then reference/current pairs with extra arguments, one per line
-run_case() {  # name list_file
+# run_case NAME LIST: one run per line of LIST ("reference current [arguments]") into a
+# script, run once to fill the caches and once under perf; the report in OUT_DIR/NAME.txt.
+run_case() {
   local name="$1" list="$2" runner="$OUT/$1.sh"
   {
     echo "set -e"
@@ -129,13 +124,5 @@ for case in cases:
 PY
 log "wrote $OUT/profile.md"
 if [ "$DOCS_UPDATE" = 1 ]; then
-  /usr/bin/python3 - "$REPO/docs/evaluation.md" "$OUT/profile.md" <<'PY'
-import sys
-doc, table = sys.argv[1], open(sys.argv[2]).read().rstrip("\n")
-begin, end = "<!-- profile-table:begin -->", "<!-- profile-table:end -->"
-text = open(doc).read()
-i, j = text.index(begin) + len(begin), text.index(end)
-open(doc, "w").write(text[:i] + "\n" + table + "\n" + text[j:])
-PY
-  log "updated the profile table of docs/evaluation.md"
+  docs_table profile-table "$OUT/profile.md"
 fi

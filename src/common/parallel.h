@@ -27,8 +27,9 @@ void runOnPool(int helpers, const std::function<void()>& work);
 /// only to their own slots, so the result does not depend on the thread count. Pool threads
 /// that sleep on a condition variable rather than OpenMP: no spinning workers stealing a
 /// shared machine's cores between the short loops of a superquadric recovery, and no thread
-/// started per loop (tens of microseconds each, against the EM steps' and EMD solves'
-/// fractions of a millisecond). Runs serially for threads <= 1, a single item, or inside
+/// started per loop. Waking a sleeping helper still costs on the order of 0.1 ms on a loaded
+/// machine, so a loop is worth spreading only when its items together take several times
+/// that. Runs serially for threads <= 1, a single item, or inside
 /// another parallelFor. Either way, the exception of the lowest failing item, if any, is
 /// rethrown after all items ran.
 template <class F>
