@@ -111,10 +111,20 @@ void alignToMap(const Cloud& input, Detection& d) {
 bool markSelfReturns(Detection& d) {
   d.disappearance_candidates = d.ref.kept;
   const NearestNeighbourIndex& reference_points = d.ref.points;
-  const SelfReturns self = findSelfReturns(d.ref.cloud, *d.current, d.params.preprocess, d.tau,
-                                           [&reference_points](const Eigen::Vector3f& p, double r) {
-                                             return reference_points.within(p, r);
-                                           });
+  // The sweep's index from outlier removal holds its distinct finite points, as the test needs.
+  const NearestNeighbourIndex* current_points = d.s.pre.distinct_index.get();
+  NearestWithin current_within;
+  if (current_points) {
+    current_within = [current_points](const Eigen::Vector3f& p, double r) {
+      return current_points->within(p, r);
+    };
+  }
+  const SelfReturns self = findSelfReturns(
+      d.ref.cloud, *d.current, d.params.preprocess, d.tau,
+      [&reference_points](const Eigen::Vector3f& p, double r) {
+        return reference_points.within(p, r);
+      },
+      current_within);
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

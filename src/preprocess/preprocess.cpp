@@ -11,7 +11,7 @@
 #include <string>
 #include <utility>
 
-#include "common/knn.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
 
 namespace novelty_detection {
 
@@ -68,8 +68,10 @@ namespace {
 /// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
 /// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
 /// spacing).
+/// `index`, when given, receives the index built over the finite points of `indices`.
 Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
-                            const Eigen::Vector3f* origin, Indices* removed, int threads) {
+                            const Eigen::Vector3f* origin, Indices* removed, int threads,
+                            std::shared_ptr<const NearestNeighbourIndex>* index = nullptr) {
   if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
   if (!(std_mul >= 0.0)) {
     throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
@@ -101,7 +103,10 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
 
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
   // the distribution of those means.
-  std::vector<double> mean_dist = detail::KnnTree(pts, threads).meanNeighbourDistances(k, threads);
+  auto tree = std::make_shared<NearestNeighbourIndex>();
+  tree->build(cloud, valid, threads);
+  std::vector<double> mean_dist = tree->meanNeighbourDistances(k, threads);
+  if (index) *index = std::move(tree);
   auto limitOf = [n, std_mul](const std::vector<double>& v) {
     double mu = 0.0;
     for (double x : v) mu += x;
@@ -177,12 +182,10 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f
   Indices current =
       removeDuplicates(cloud, result.finite, &result.duplicates, &result.duplicate_of);
   if (params_.outlier_removal) {
-    current = params_.outlier_range_scaled && origin_known
-                  ? removeSparseOutliersRangeScaled(cloud, current, params_.outlier_k,
-                                                    params_.outlier_std_mul, sensor_origin,
-                                                    &result.outliers, threads_)
-                  : removeSparseOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
-                                         &result.outliers, threads_);
+    const bool scaled = params_.outlier_range_scaled && origin_known;
+    current = statisticalOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
+                                  scaled ? &sensor_origin : nullptr, &result.outliers, threads_,
+                                  &result.distinct_index);
   }
   if (params_.ground_removal) {
     result.ground =

@@ -135,7 +135,8 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m,
-                            const NearestWithin& reference_within) {
+                            const NearestWithin& reference_within,
+                            const NearestWithin& current_within) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -168,14 +169,14 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
     // Repeats of a position do not change a nearest distance: an index over every finite
     // reference point serves as well as one over the distinct ones.
-    detail::KnnTree reference_map;
+    detail::KnnTree reference_map, current_map;
     if (!reference_within) reference_map = detail::KnnTree(pointsAt(reference, rd.unique));
-    const detail::KnnTree current_map(pointsAt(current, cd.unique));
+    if (!current_within) current_map = detail::KnnTree(pointsAt(current, cd.unique));
     const auto to_reference = [&](const Eigen::Vector3f& p, double r) {
       return reference_within ? reference_within(p, r) : reference_map.anyWithin(p, r);
     };
     const auto to_current = [&](const Eigen::Vector3f& p, double r) {
-      return current_map.anyWithin(p, r);
+      return current_within ? current_within(p, r) : current_map.anyWithin(p, r);
     };
     const double nd = std::max(0.0, novelty_distance_m);
     markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, &s.current);

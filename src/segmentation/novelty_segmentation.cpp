@@ -67,6 +67,10 @@ double NearestNeighbourIndex::kthDistance(const Eigen::Vector3f& p, int k) const
 
 Eigen::Vector3f NearestNeighbourIndex::point(int id) const { return impl_->points[id]; }
 
+std::vector<double> NearestNeighbourIndex::meanNeighbourDistances(int k, int threads) const {
+  return impl_->tree.meanNeighbourDistances(k, threads);
+}
+
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {
   distances.erase(std::remove_if(distances.begin(), distances.end(),
                                  [](double d) { return !std::isfinite(d); }),

@@ -250,6 +250,25 @@ TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
   EXPECT_EQ(kept.current, built.current);
   EXPECT_EQ(kept.reference, built.reference);
   EXPECT_EQ(kept.current_count, built.current_count);
+  // The current sweep's index from pre-processing (its distinct finite points, here with
+  // repeats and a missing point in the sweep) serves the other direction: the same marks.
+  Cloud cur_repeated = cur;
+  for (std::size_t i = 0, n = cur.size(); i < n; i += 7) cur_repeated.push_back(cur[i]);
+  cur_repeated.push_back(PointT(NAN, NAN, NAN));
+  cur_repeated.width = cur_repeated.size(), cur_repeated.height = 1;
+  cur_repeated.sensor_origin_ = cur.sensor_origin_;
+  cur_repeated.sensor_orientation_ = cur.sensor_orientation_;
+  const PreprocessResult pre = Preprocessor(p).compute(cur_repeated);
+  ASSERT_TRUE(pre.distinct_index);
+  EXPECT_EQ(pre.distinct_index->size(), pre.finite.size() - pre.duplicates.size());
+  const SelfReturns plain = findSelfReturns(ref, cur_repeated, p, 0.05);
+  const SelfReturns both = findSelfReturns(
+      ref, cur_repeated, p, 0.05,
+      [&index](const Eigen::Vector3f& q, double r) { return index.within(q, r); },
+      [&pre](const Eigen::Vector3f& q, double r) { return pre.distinct_index->within(q, r); });
+  EXPECT_GE(markedAmong(both.reference, body_ref), body_ref.size() * 95 / 100);
+  EXPECT_EQ(both.current, plain.current);
+  EXPECT_EQ(both.reference, plain.reference);
 }
 
 // A cloud stored twice (every return repeated, as some recorded scans are) is the same

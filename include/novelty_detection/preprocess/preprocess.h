@@ -3,10 +3,14 @@
 // ORIGINAL input cloud, so each input point can be traced to the step that removed it.
 #pragma once
 
+#include <memory>
+
 #include "novelty_detection/params.h"
 #include "novelty_detection/types.h"
 
 namespace novelty_detection {
+
+class NearestNeighbourIndex;
 
 /// A plane a*x + b*y + c*z + d = 0 with (a, b, c) unit length and c > 0 (normal up).
 struct GroundPlane {
@@ -26,6 +30,10 @@ struct PreprocessResult {
   Indices outliers;  ///< input indices removed as sparse outliers
   GroundPlane ground;
   Indices kept;  ///< input indices surviving every step, ascending
+  /// The index outlier removal searched: every distinct finite point (`finite` without
+  /// `duplicates`, in that order). Later stages that query the whole sweep use it instead of
+  /// indexing the sweep again. Null when outlier removal is off or had no statistics to make.
+  std::shared_ptr<const NearestNeighbourIndex> distinct_index;
 };
 
 /// Input indices of the points whose x, y, z are all finite.

@@ -63,10 +63,12 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 /// map-frame point; false when the cloud has none.
 using NearestWithin = std::function<bool(const Eigen::Vector3f&, double radius)>;
 
-/// `reference_within` (optional): that test against the finite reference points, when the
-/// caller keeps an index of them (a reference model); else one is built here.
+/// `reference_within` and `current_within` (optional): that test against the finite points of
+/// each cloud, when the caller keeps an index of them (a reference model, the current sweep's
+/// pre-processing); else one is built here.
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0,
-                            const NearestWithin& reference_within = {});
+                            const NearestWithin& reference_within = {},
+                            const NearestWithin& current_within = {});
 
 }  // namespace novelty_detection

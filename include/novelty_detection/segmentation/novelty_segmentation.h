@@ -52,6 +52,10 @@ class NearestNeighbourIndex {
   /// Distance from p to its k-th nearest indexed point (p itself counts when indexed);
   /// +inf with fewer than k points.
   double kthDistance(const Eigen::Vector3f& p, int k) const;
+  /// For every indexed point (in build order), the mean distance to its k nearest other
+  /// indexed points (k clamped to size - 1; 0 for a single point), on up to `threads`
+  /// threads; the result does not depend on it.
+  std::vector<double> meanNeighbourDistances(int k, int threads = 1) const;
 
  private:
   struct Impl;
