@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -13,6 +14,7 @@
 
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/shape/superquadric_cost.h"
+#include "shape/least_squares.h"
 
 namespace novelty_detection {
 namespace {
@@ -31,26 +33,77 @@ void requirePoints(const Points3d& points, const char* who) {
 /// the support when the points stand on the floor, weighing like all of them moved by the
 /// same distance (eq. 3's residual changes by about 2 sqrt(a) per metre of offset).
 void addBounds(const FitBounds& bounds, const Points3d& points, bool standing,
-               const Eigen::Matrix3d& r0, const Eigen::Vector3d& c0, double* a, double* e,
-               double* w, double* t, ceres::Problem* problem) {
+               const Eigen::Matrix3d& r0, const Eigen::Vector3d& c0, const double* a,
+               std::vector<std::unique_ptr<ceres::CostFunction>>* costs) {
   const double n = static_cast<double>(points.size());
   if (!bounds.outside.empty() && bounds.params.outside_weight > 0.0) {
     Points3d q(bounds.outside.size());
     for (std::size_t i = 0; i < q.size(); ++i) q[i] = r0.transpose() * (bounds.outside[i] - c0);
     const double m = static_cast<double>(q.size());
-    problem->AddResidualBlock(
-        new SuperquadricOutsideResidual(
-            q, bounds.params.outside_weight * std::sqrt(std::max(1.0, n / m))),
-        nullptr, a, e, w, t);
+    costs->emplace_back(new SuperquadricOutsideResidual(
+        q, bounds.params.outside_weight * std::sqrt(std::max(1.0, n / m))));
   }
   if (bounds.params.support_weight > 0.0 && standing) {
     const double mean_a = (a[0] + a[1] + a[2]) / 3.0;
     const double weight = bounds.params.support_weight * std::sqrt(n) * 2.0 * std::sqrt(mean_a);
-    problem->AddResidualBlock(
-        SuperquadricSupportResidual::Create(r0.transpose() * bounds.up,
-                                            bounds.up.dot(c0) + bounds.floor_offset, weight),
-        nullptr, a, e, w, t);
+    costs->emplace_back(SuperquadricSupportResidual::Create(
+        r0.transpose() * bounds.up, bounds.up.dot(c0) + bounds.floor_offset, weight));
   }
+}
+
+/// The fit on Ceres (per-point residual blocks, with a robust loss or automatic
+/// derivatives): `per_point` under the loss, `costs` without; parameters x in the blocks
+/// a, e, w, t within [lo, hi], the fixed rotation components held by a subset manifold.
+/// Returns Ceres' iteration count.
+int solveWithCeres(const std::vector<std::unique_ptr<ceres::CostFunction>>& per_point,
+                   const std::vector<std::unique_ptr<ceres::CostFunction>>& costs,
+                   const std::string& robust_loss, double loss_scale,
+                   const detail::LeastSquaresOptions& ls, const detail::FitVector& lo,
+                   const detail::FitVector& hi,
+                   const std::array<bool, detail::kFitParameters>& fixed, detail::FitVector* x) {
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  // One loss instance shared by all residuals (the problem owns it once).
+  ceres::LossFunction* loss = nullptr;
+  if (robust_loss == "huber") {
+    loss = new ceres::HuberLoss(loss_scale);
+  } else if (robust_loss == "cauchy") {
+    loss = new ceres::CauchyLoss(loss_scale);
+  }
+  constexpr int kStart[4] = {0, 3, 5, 8}, kSize[4] = {3, 2, 3, 3};
+  double* blocks[4];
+  for (int b = 0; b < 4; ++b) blocks[b] = x->data() + kStart[b];
+  for (const auto& c : per_point)
+    problem.AddResidualBlock(c.get(), loss, blocks[0], blocks[1], blocks[2], blocks[3]);
+  for (const auto& c : costs)
+    problem.AddResidualBlock(c.get(), nullptr, blocks[0], blocks[1], blocks[2], blocks[3]);
+  std::vector<int> held;
+  for (int k = 0; k < 3; ++k)
+    if (fixed[5 + k]) held.push_back(k);
+  if (!held.empty()) problem.SetManifold(blocks[2], new ceres::SubsetManifold(3, held));
+  for (int b = 0; b < 4; ++b) {
+    for (int k = 0; k < kSize[b]; ++k) {
+      const int i = kStart[b] + k;
+      if (std::isfinite(lo[i])) problem.SetParameterLowerBound(blocks[b], k, lo[i]);
+      if (std::isfinite(hi[i])) problem.SetParameterUpperBound(blocks[b], k, hi[i]);
+    }
+  }
+  ceres::Solver::Options options;
+  options.minimizer_type = ceres::TRUST_REGION;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = ls.max_iterations;
+  options.function_tolerance = ls.function_tolerance;
+  options.gradient_tolerance = ls.gradient_tolerance;
+  options.parameter_tolerance = ls.parameter_tolerance;
+  options.num_threads = 1;
+  if (!ls.line_search) options.max_num_line_search_step_size_iterations = 0;
+  options.minimizer_progress_to_stdout = false;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  return static_cast<int>(summary.iterations.size());
 }
 
 /// `r` turned so that its axis nearest to `up` lies along it (the other two horizontal);
@@ -180,79 +233,79 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
                                  ? uprightRotation(initial.rotation(), bounds_->up, &up_axis)
                                  : initial.rotation();
   const Eigen::Vector3d c0 = initial.position;
-  double a[3], e[2], w[3] = {0.0, 0.0, 0.0}, t[3] = {0.0, 0.0, 0.0};
-  for (int k = 0; k < 3; ++k) a[k] = std::min(std::max(initial.a[k], size_lo), size_hi);
-  e[0] = std::min(std::max(initial.e1, params_.epsilon_min), params_.epsilon_max);
-  e[1] = std::min(std::max(initial.e2, params_.epsilon_min), params_.epsilon_max);
-  // The centre may move within size_hi of the point set's centroid (expressed in the start
-  // frame), so that a fit cannot run away from its data.
+  // The 11 parameters (sizes, exponents, rotation and translation from the start frame),
+  // their box, and the rotation components an upright fit holds (only the turn about up is
+  // free). The centre may move within size_hi of the point set's centroid (expressed in the
+  // start frame), so that a fit cannot run away from its data.
   const Eigen::Vector3d centroid_local = r0.transpose() * (f.centroid - c0);
-
-  ceres::Problem problem;
-  ceres::LossFunction* loss = nullptr;
-  const double loss_scale = params_.robust_loss_scale * std::sqrt(a[0] * a[1] * a[2]);
-  // One loss instance shared by all residuals (the problem owns it once).
-  if (params_.robust_loss == "huber") {
-    loss = new ceres::HuberLoss(loss_scale);
-  } else if (params_.robust_loss == "cauchy") {
-    loss = new ceres::CauchyLoss(loss_scale);
+  const double inf = std::numeric_limits<double>::infinity();
+  detail::FitVector x{}, lo, hi;
+  std::array<bool, detail::kFitParameters> fixed{};
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = size_lo, hi[k] = size_hi;
+    x[k] = std::min(std::max(initial.a[k], size_lo), size_hi);
+    lo[5 + k] = -inf, hi[5 + k] = inf;
+    lo[8 + k] = centroid_local[k] - size_hi, hi[8 + k] = centroid_local[k] + size_hi;
+    x[8 + k] = std::min(std::max(0.0, lo[8 + k]), hi[8 + k]);
   }
+  lo[3] = lo[4] = params_.epsilon_min;
+  hi[3] = hi[4] = params_.epsilon_max;
+  x[3] = std::min(std::max(initial.e1, params_.epsilon_min), params_.epsilon_max);
+  x[4] = std::min(std::max(initial.e2, params_.epsilon_min), params_.epsilon_max);
+  if (up_axis >= 0) fixed[5 + (up_axis + 1) % 3] = fixed[5 + (up_axis + 2) % 3] = true;
+
   // The points in the start model's frame.
   Points3d q(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) q[i] = r0.transpose() * (points[i] - c0);
   // A bounded fit adds each point's first-order surface distance (fit_bounds.h).
   const double surface_weight =
       bounded && bounds_ ? std::max(0.0, bounds_->params.surface_weight) : 0.0;
-  if (!loss && !params_.autodiff) {
-    // One block for all points, with their surface distances: same cost and derivatives,
-    // far less per-block overhead, and the distances reuse eq. 3's logs and exps.
-    problem.AddResidualBlock(new SuperquadricBatchResidual(q, surface_weight), nullptr, a, e, w, t);
+  const bool robust = params_.robust_loss == "huber" || params_.robust_loss == "cauchy";
+  std::vector<std::unique_ptr<ceres::CostFunction>> per_point, costs;
+  if (!robust && !params_.autodiff) {
+    // One block for all points, with their surface distances: the distances reuse eq. 3's
+    // logs and exps.
+    costs.emplace_back(new SuperquadricBatchResidual(q, surface_weight));
   } else {
     for (const auto& qi : q) {
-      problem.AddResidualBlock(params_.autodiff ? SuperquadricResidual::Create(qi)
-                                                : SuperquadricAnalyticResidual::Create(qi),
-                               loss, a, e, w, t);
+      per_point.emplace_back(params_.autodiff ? SuperquadricResidual::Create(qi)
+                                              : SuperquadricAnalyticResidual::Create(qi));
     }
-    if (surface_weight > 0.0) {
-      // One block for all points (the robust loss, if any, acts on eq. 3's residuals only).
-      problem.AddResidualBlock(new SuperquadricSurfaceResidual(q, surface_weight), nullptr, a, e, w,
-                               t);
-    }
+    // One block for all points (the robust loss, if any, acts on eq. 3's residuals only).
+    if (surface_weight > 0.0)
+      costs.emplace_back(new SuperquadricSurfaceResidual(q, surface_weight));
   }
-  if (bounded && bounds_) {
-    addBounds(*bounds_, points, standing, r0, c0, a, e, w, t, &problem);
-  }
-  if (up_axis >= 0) {
-    problem.AddParameterBlock(w, 3);
-    problem.SetManifold(w, new ceres::SubsetManifold(3, {(up_axis + 1) % 3, (up_axis + 2) % 3}));
-  }
-  for (int k = 0; k < 3; ++k) {
-    problem.SetParameterLowerBound(a, k, size_lo);
-    problem.SetParameterUpperBound(a, k, size_hi);
-    problem.SetParameterLowerBound(t, k, centroid_local[k] - size_hi);
-    problem.SetParameterUpperBound(t, k, centroid_local[k] + size_hi);
-  }
-  for (int k = 0; k < 2; ++k) {
-    problem.SetParameterLowerBound(e, k, params_.epsilon_min);
-    problem.SetParameterUpperBound(e, k, params_.epsilon_max);
-  }
+  if (bounded && bounds_) addBounds(*bounds_, points, standing, r0, c0, x.data(), &costs);
 
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  options.max_num_iterations = max_iterations < 0 ? params_.max_iterations : max_iterations;
+  detail::LeastSquaresOptions options;
+  options.max_iterations = max_iterations < 0 ? params_.max_iterations : max_iterations;
   options.function_tolerance = params_.function_tolerance;
-  options.gradient_tolerance = 1e-10;
-  options.parameter_tolerance = 1e-8;
-  options.num_threads = 1;
-  // With bounds, Ceres searches along each projected step (several extra evaluations per
-  // iteration); ranking fits skip it and take the projected step as it is.
-  if (!line_search) options.max_num_line_search_step_size_iterations = 0;
-  options.minimizer_progress_to_stdout = false;
-  options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  if (options.max_num_iterations > 0) ceres::Solve(options, &problem, &summary);
+  // With bounds, each step is searched along its projected path; ranking fits skip the
+  // search and take the projected step as it is.
+  options.line_search = line_search;
+  int solved_iterations = 0;
+  if (options.max_iterations > 0) {
+    if (per_point.empty()) {
+      // The small bounded LM (least_squares.h): the same method as Ceres' without its
+      // per-problem machinery.
+      std::vector<const ceres::CostFunction*> views;
+      for (const auto& c : costs) views.push_back(c.get());
+      detail::LeastSquaresSummary summary;
+      detail::FitVector solved = x;
+      if (detail::solveBounded(views, &solved, lo, hi, fixed, options, &summary)) {
+        x = solved;
+        solved_iterations = summary.iterations + 1;  // counted as Ceres does, with iteration 0
+      }
+    } else {
+      const double loss_scale = params_.robust_loss_scale * std::sqrt(x[0] * x[1] * x[2]);
+      solved_iterations = solveWithCeres(per_point, costs, params_.robust_loss, loss_scale, options,
+                                         lo, hi, fixed, &x);
+    }
+  }
+  const double* a = x.data();
+  const double* e = x.data() + 3;
+  const double* w = x.data() + 5;
+  const double* t = x.data() + 8;
 
   FitResult result;
   Superquadric& sq = result.sq;
@@ -272,7 +325,7 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
     sq.position = c0 + r0 * tv;
   }
   sq.points = static_cast<int>(points.size());
-  result.iterations = static_cast<int>(summary.iterations.size());
+  result.iterations = solved_iterations;
   if (measures == FitMeasures::kAll || measures == FitMeasures::kRadial) {
     result.mean_radial_distance = meanRadialDistance(sq, points);
   }
