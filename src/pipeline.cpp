@@ -448,6 +448,7 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
     if (d.s.reps.size() == 0) return std::move(d.result);
   }
   d.result.point_counts.emplace_back("self_returns", d.self_returns);
+  d.s.pre.distinct_index.reset();  // the robot-return test was its last user
   fitCurrentMixture(d);
   selectNovelGaussians(d);
   segmentCandidates(d);
