@@ -427,9 +427,10 @@ void fitSuperquadrics(Detection& d) {
   d.timer.lap("superquadrics");
 }
 
-/// Pre-processing, the multi-scale cut, the floor and tau of the sweep as it stands.
-void simplifyAndMeasure(Detection& d) {
-  d.s = simplify(d.params, *d.current, &d.result, &d.timer);
+/// Pre-processing, the multi-scale cut, the floor and tau of the sweep as it stands;
+/// `earlier`: the pre-processing of the sweep before its robot returns became NaN.
+void simplifyAndMeasure(Detection& d, const PreprocessResult* earlier = nullptr) {
+  d.s = simplify(d.params, *d.current, &d.result, &d.timer, earlier);
   const GroundPlane& ground = d.s.pre.ground;
   d.result.floor_found = ground.found;
   if (ground.found) d.result.floor = ground.coefficients;
@@ -444,11 +445,14 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   if (d.s.reps.size() == 0) return std::move(d.result);  // empty or all-NaN: nothing is novel
   if (markSelfReturns(d)) {
     d.result.point_counts.resize(1);  // "input": the counts follow the sweep without them
-    simplifyAndMeasure(d);
+    // Outlier statistics of points whose neighbourhoods lost no robot return carry over.
+    const PreprocessResult first = std::move(d.s.pre);
+    simplifyAndMeasure(d, &first);
     if (d.s.reps.size() == 0) return std::move(d.result);
   }
   d.result.point_counts.emplace_back("self_returns", d.self_returns);
-  d.s.pre.distinct_index.reset();  // the robot-return test was its last user
+  d.s.pre.distinct_index.reset();  // the robot-return test was their last user
+  d.s.pre.statistics = {};
   fitCurrentMixture(d);
   selectNovelGaussians(d);
   segmentCandidates(d);

@@ -70,9 +70,13 @@ Cloud rotateCloud(const Cloud& cloud, const Eigen::Matrix3d& R) {
   return out;
 }
 
-Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer) {
+Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer,
+                    const PreprocessResult* earlier) {
   Simplified s;
-  s.pre = Preprocessor(params.preprocess).setThreads(params.compute.resolved()).compute(cloud);
+  s.pre = Preprocessor(params.preprocess)
+              .setThreads(params.compute.resolved())
+              .setEarlier(earlier)
+              .compute(cloud);
   if (result) {
     result->point_counts.emplace_back("finite", s.pre.finite.size());
     result->point_counts.emplace_back(

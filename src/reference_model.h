@@ -78,7 +78,10 @@ void toInputFrame(const ReferenceModel& ref, const Cloud& input, Result* r);
 
 /// Pre-processing and the multi-scale cut of `cloud`; with `result`, its point counts and
 /// (with `timer`) the stage times are recorded.
-Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer);
+/// `earlier`: pre-processing of the same cloud before some of its points became non-finite
+/// (Preprocessor::setEarlier).
+Simplified simplify(const Params& params, const Cloud& cloud, Result* result, StageTimer* timer,
+                    const PreprocessResult* earlier = nullptr);
 
 /// Everything detect() needs of the reference, computed once. `views` (may be empty) says
 /// which sweep each point came from and where it was seen from (types.h). Throws

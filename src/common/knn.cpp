@@ -104,11 +104,13 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
   y_.resize(n);
   z_.resize(n);
   id_.resize(n);
+  position_of_.resize(n);
   for (int i = 0; i < n; ++i) {
     x_[i] = items[i].p.x();
     y_[i] = items[i].p.y();
     z_[i] = items[i].p.z();
     id_[i] = items[i].id;
+    position_of_[items[i].id] = i;
   }
 }
 
@@ -143,6 +145,30 @@ void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, in
   }
 }
 
+void KnnTree::searchFromLeaf(int t, int k, float* d2, int* count) const {
+  // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
+  // stopping once the ball through the k-th neighbour lies inside the current subtree.
+  const float q[3] = {x_[t], y_[t], z_[t]};
+  *count = 0;
+  int node = leaf_of_[t];
+  search(node, q, t, k, d2, count);
+  while (nodes_[node].parent >= 0) {
+    const Node& parent = nodes_[nodes_[node].parent];
+    const int sibling = parent.left == node ? parent.right : parent.left;
+    if (*count < k || boxDistance2(q, nodes_[sibling].lo, nodes_[sibling].hi) < d2[k - 1]) {
+      search(sibling, q, t, k, d2, count);
+    }
+    node = nodes_[node].parent;
+    if (*count == k) {
+      float inside = q[0] - parent.lo[0];
+      for (int a = 0; a < 3; ++a) {
+        inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
+      }
+      if (inside > 0.f && inside * inside >= d2[k - 1]) break;
+    }
+  }
+}
+
 template <class Reduce>
 std::vector<double> KnnTree::forEachNeighbourhood(int k, int threads, Reduce reduce) const {
   const int n = static_cast<int>(x_.size());
@@ -157,39 +183,44 @@ std::vector<double> KnnTree::forEachNeighbourhood(int k, int threads, Reduce red
     std::vector<float> d2(k);
     const int end = std::min(n, (b + 1) * kBlock);
     for (int t = b * kBlock; t < end; ++t) {
-      // Bottom-up: the query's own leaf, then the sibling subtrees on the way to the root,
-      // stopping once the ball through the k-th neighbour lies inside the current subtree.
-      const float q[3] = {x_[t], y_[t], z_[t]};
       int count = 0;
-      int node = leaf_of_[t];
-      search(node, q, t, k, d2.data(), &count);
-      while (nodes_[node].parent >= 0) {
-        const Node& parent = nodes_[nodes_[node].parent];
-        const Node& sibling = nodes_[parent.left == node ? parent.right : parent.left];
-        if (count < k || boxDistance2(q, sibling.lo, sibling.hi) < d2[k - 1]) {
-          search(parent.left == node ? parent.right : parent.left, q, t, k, d2.data(), &count);
-        }
-        node = nodes_[node].parent;
-        if (count == k) {
-          float inside = q[0] - parent.lo[0];
-          for (int a = 0; a < 3; ++a) {
-            inside = std::min({inside, q[a] - parent.lo[a], parent.hi[a] - q[a]});
-          }
-          if (inside > 0.f && inside * inside >= d2[k - 1]) break;
-        }
-      }
-      out[id_[t]] = reduce(d2.data(), count);
+      searchFromLeaf(t, k, d2.data(), &count);
+      out[id_[t]] = reduce(id_[t], d2.data(), count);
     }
   });
   return out;
 }
 
-std::vector<double> KnnTree::meanNeighbourDistances(int k, int threads) const {
-  return forEachNeighbourhood(k, threads, [](const float* d2, int count) {
-    double sum = 0.0;
-    for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
-    return sum / count;
+namespace {
+
+/// The mean of the square roots of the ascending squared distances d2[0, count).
+double meanOfRoots(const float* d2, int count) {
+  double sum = 0.0;
+  for (int j = 0; j < count; ++j) sum += std::sqrt(static_cast<double>(d2[j]));
+  return sum / count;
+}
+
+}  // namespace
+
+std::vector<double> KnnTree::meanNeighbourDistances(int k, int threads,
+                                                    std::vector<double>* kth) const {
+  if (kth) kth->assign(x_.size(), 0.0);
+  return forEachNeighbourhood(k, threads, [kth](int index, const float* d2, int count) {
+    if (kth) (*kth)[index] = std::sqrt(static_cast<double>(d2[count - 1]));
+    return meanOfRoots(d2, count);
   });
+}
+
+double KnnTree::meanNeighbourDistance(int index, int k, double* kth) const {
+  const int n = static_cast<int>(x_.size());
+  k = std::min(k, n - 1);
+  if (kth) *kth = 0.0;
+  if (k <= 0) return 0.0;
+  std::vector<float> d2(k);
+  int count = 0;
+  searchFromLeaf(position_of_[index], k, d2.data(), &count);
+  if (kth) *kth = std::sqrt(static_cast<double>(d2[count - 1]));
+  return meanOfRoots(d2.data(), count);
 }
 
 double KnnTree::nearestDistance(const Eigen::Vector3f& p) const {
@@ -243,7 +274,7 @@ bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {
-  return forEachNeighbourhood(k, threads, [](const float* d2, int count) {
+  return forEachNeighbourhood(k, threads, [](int, const float* d2, int count) {
     return std::sqrt(static_cast<double>(d2[count - 1]));  // d2 is sorted ascending
   });
 }

@@ -35,7 +35,14 @@ class KnnTree {
   /// For every point, the mean Euclidean distance to its k nearest OTHER points (k is
   /// clamped to size - 1; 0 when the tree has a single point). Exact.
   /// The points are searched on up to `threads` threads; the result does not depend on it.
-  std::vector<double> meanNeighbourDistances(int k, int threads = 1) const;
+  /// With `kth`, also each point's distance to its k-th nearest other point.
+  std::vector<double> meanNeighbourDistances(int k, int threads = 1,
+                                             std::vector<double>* kth = nullptr) const;
+
+  /// The same for the single point at input position `index`: the mean distance to its k
+  /// nearest other points (k clamped as above), and the k-th of them in `kth`. Equal to the
+  /// entry meanNeighbourDistances() gives it.
+  double meanNeighbourDistance(int index, int k, double* kth = nullptr) const;
 
   /// For every point, the distance to its k-th nearest OTHER point (k clamped as above; 0
   /// when the tree has a single point). Exact.
@@ -91,11 +98,14 @@ class KnnTree {
   /// count) at the point's input position.
   template <class Reduce>
   std::vector<double> forEachNeighbourhood(int k, int threads, Reduce reduce) const;
+  /// The k nearest other points of tree position t, searched bottom-up from its leaf.
+  void searchFromLeaf(int t, int k, float* d2, int* count) const;
   void search(int node, const float* q, int self, int k, float* d2, int* count) const;
 
   std::vector<float> x_, y_, z_;  ///< coordinates in tree order
   std::vector<int> id_;           ///< tree order -> input position
   std::vector<int> leaf_of_;      ///< tree position -> leaf node
+  std::vector<int> position_of_;  ///< input position -> tree position
   std::vector<Node> nodes_;
 };
 

@@ -11,6 +11,8 @@
 #include <string>
 #include <utility>
 
+#include "common/knn.h"
+#include "common/parallel.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
 namespace novelty_detection {
@@ -68,10 +70,71 @@ namespace {
 /// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
 /// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
 /// spacing).
-/// `index`, when given, receives the index built over the finite points of `indices`.
+/// The mean distances to the k nearest other points of `tree`'s points (input indices
+/// `points`, ascending), into `stats`. With the statistics of an earlier run over a superset
+/// of `points` (`earlier`, its index `earlier_index`; the same points at the same places),
+/// the points none of whose lost points lies within their k-th distance keep their values:
+/// their k nearest are the same points.
+void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& points, int k,
+                         int threads, const PreprocessResult::NeighbourStatistics* earlier,
+                         const NearestNeighbourIndex* earlier_index,
+                         PreprocessResult::NeighbourStatistics* stats) {
+  stats->k = k;
+  stats->points = points;
+  const std::size_t n = points.size();
+  // Positions of the points in the earlier statistics (both ascending), and where the lost
+  // ones were.
+  std::vector<int> before;
+  std::vector<Eigen::Vector3f> lost;
+  bool reuse = earlier && earlier_index && earlier->k == k && static_cast<int>(n) > k &&
+               earlier->points.size() >= n && earlier->mean.size() == earlier->points.size() &&
+               earlier_index->size() == earlier->points.size();
+  if (reuse) {
+    before.reserve(n);
+    for (std::size_t e = 0; e < earlier->points.size(); ++e) {
+      if (before.size() < n && earlier->points[e] == points[before.size()]) {
+        before.push_back(static_cast<int>(e));
+      } else {
+        lost.push_back(earlier_index->point(static_cast<int>(e)));
+      }
+    }
+    reuse = before.size() == n;
+    // The same points where they were: a run on another cloud shares nothing.
+    for (std::size_t j = 0; j < n && reuse; ++j)
+      reuse = tree.point(static_cast<int>(j)) == earlier_index->point(before[j]);
+  }
+  if (!reuse) {
+    stats->mean = tree.meanNeighbourDistances(k, threads, &stats->kth);
+    return;
+  }
+  const detail::KnnTree lost_tree(lost);
+  stats->mean.assign(n, 0.0);
+  stats->kth.assign(n, 0.0);
+  std::vector<char> kept_values(n, 0);
+  constexpr int kBlock = 4096;
+  detail::parallelFor(static_cast<int>((n + kBlock - 1) / kBlock), threads, [&](int b) {
+    const int end = std::min(static_cast<int>(n), (b + 1) * kBlock);
+    for (int j = b * kBlock; j < end; ++j) {
+      const int e = before[static_cast<std::size_t>(j)];
+      if (lost_tree.nearestDistance(tree.point(j)) > earlier->kth[e]) {
+        stats->mean[j] = earlier->mean[e];
+        stats->kth[j] = earlier->kth[e];
+        kept_values[static_cast<std::size_t>(j)] = 1;
+      } else {
+        stats->mean[j] = tree.meanNeighbourDistance(j, k, &stats->kth[j]);
+      }
+    }
+  });
+  for (char c : kept_values) stats->reused += c;
+}
+
+/// `index`, when given, receives the index built over the finite points of `indices`, and
+/// `stats` the neighbour statistics (reusing `earlier`'s where they hold).
 Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
                             const Eigen::Vector3f* origin, Indices* removed, int threads,
-                            std::shared_ptr<const NearestNeighbourIndex>* index = nullptr) {
+                            std::shared_ptr<const NearestNeighbourIndex>* index = nullptr,
+                            const PreprocessResult* earlier = nullptr,
+                            PreprocessResult::NeighbourStatistics* stats = nullptr) {
   if (k < 1) throw std::invalid_argument("removeSparseOutliers: k must be >= 1");
   if (!(std_mul >= 0.0)) {
     throw std::invalid_argument("removeSparseOutliers: std_mul must be >= 0");
@@ -105,7 +168,11 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
   // the distribution of those means.
   auto tree = std::make_shared<NearestNeighbourIndex>();
   tree->build(cloud, valid, threads);
-  std::vector<double> mean_dist = tree->meanNeighbourDistances(k, threads);
+  PreprocessResult::NeighbourStatistics own;
+  PreprocessResult::NeighbourStatistics& s = stats ? *stats : own;
+  neighbourStatistics(*tree, valid, k, threads, earlier ? &earlier->statistics : nullptr,
+                      earlier ? earlier->distinct_index.get() : nullptr, &s);
+  const std::vector<double>& mean_dist = s.mean;
   if (index) *index = std::move(tree);
   auto limitOf = [n, std_mul](const std::vector<double>& v) {
     double mu = 0.0;
@@ -185,7 +252,7 @@ PreprocessResult Preprocessor::compute(const Cloud& cloud, const Eigen::Vector3f
     const bool scaled = params_.outlier_range_scaled && origin_known;
     current = statisticalOutliers(cloud, current, params_.outlier_k, params_.outlier_std_mul,
                                   scaled ? &sensor_origin : nullptr, &result.outliers, threads_,
-                                  &result.distinct_index);
+                                  &result.distinct_index, earlier_, &result.statistics);
   }
   if (params_.ground_removal) {
     result.ground =

@@ -67,8 +67,13 @@ double NearestNeighbourIndex::kthDistance(const Eigen::Vector3f& p, int k) const
 
 Eigen::Vector3f NearestNeighbourIndex::point(int id) const { return impl_->points[id]; }
 
-std::vector<double> NearestNeighbourIndex::meanNeighbourDistances(int k, int threads) const {
-  return impl_->tree.meanNeighbourDistances(k, threads);
+std::vector<double> NearestNeighbourIndex::meanNeighbourDistances(int k, int threads,
+                                                                  std::vector<double>* kth) const {
+  return impl_->tree.meanNeighbourDistances(k, threads, kth);
+}
+
+double NearestNeighbourIndex::meanNeighbourDistance(int id, int k, double* kth) const {
+  return impl_->tree.meanNeighbourDistance(id, k, kth);
 }
 
 double noveltyDistanceThreshold(std::vector<double> distances, double factor, double floor_m) {

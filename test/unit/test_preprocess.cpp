@@ -14,6 +14,7 @@
 
 #include "../../src/common/knn.h"
 #include "novelty_detection/preprocess/preprocess.h"
+#include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/sim/scene.h"
 #include "synthetic_scene.h"
 
@@ -119,6 +120,16 @@ TEST(KnnTree, MeanNeighbourDistancesMatchBruteForce) {
     EXPECT_EQ(nd::detail::KnnTree(pts).meanNeighbourDistances(k, 3), fast);
     EXPECT_EQ(nd::detail::KnnTree(pts).kthNeighbourDistances(k, 2),
               nd::detail::KnnTree(pts).kthNeighbourDistances(k, 1));
+    // One point at a time: the same values, the k-th distance too.
+    std::vector<double> kth;
+    const nd::detail::KnnTree tree(pts);
+    ASSERT_EQ(tree.meanNeighbourDistances(k, 2, &kth), fast);
+    EXPECT_EQ(kth, tree.kthNeighbourDistances(k));
+    for (std::size_t i = 0; i < pts.size(); i += 97) {
+      double one_kth = -1.0;
+      ASSERT_EQ(tree.meanNeighbourDistance(static_cast<int>(i), k, &one_kth), fast[i]);
+      ASSERT_EQ(one_kth, kth[i]);
+    }
     for (std::size_t i = 0; i < pts.size(); i += 41) {
       std::vector<double> d;
       for (std::size_t j = 0; j < pts.size(); ++j) {
@@ -542,6 +553,55 @@ TEST(PreprocessSimulated, CorridorAtPaperNoise) {
         "floor left below %d, novel above kept %d/%d\n",
         static_cast<int>(seed), cloud.size(), r.kept.size(), r.ground.inliers.size(),
         r.ground.threshold_m, r.outliers.size(), floor_left, novel_above_kept, novel_above);
+  }
+}
+
+// The robot's returns found after pre-processing become NaN and the sweep is pre-processed
+// again: the outlier statistics of points whose k nearest neighbours lost none carry over
+// from the first run, and everything comes out as a run from scratch would give it.
+TEST(PreprocessSimulated, RunAfterLosingPointsReusesStatisticsAndMatchesAFreshRun) {
+  namespace sim = novelty_detection::sim;
+  sim::SceneConfig cfg;
+  cfg.seed = 5;
+  const sim::ScenePair pair = sim::generateScenePair(cfg);
+  nd::Cloud cloud = pair.current;
+  for (const int threads : {1, 2}) {
+    const nd::Preprocessor pre = nd::Preprocessor(nd::PreprocessParams()).setThreads(threads);
+    const nd::PreprocessResult first = pre.compute(cloud);
+    ASSERT_EQ(first.statistics.points.size(), first.distinct_index->size());
+    EXPECT_EQ(first.statistics.reused, 0u);
+    // Lose a patch near the sensor (a robot's body) and every 97th point.
+    nd::Cloud lost = cloud;
+    const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
+    std::size_t gone = 0;
+    for (std::size_t i = 0; i < lost.size(); ++i) {
+      const Eigen::Vector3f p = lost[i].getVector3fMap();
+      if (!p.allFinite()) continue;
+      if ((p - o).norm() < 1.2f || i % 97 == 0) {
+        lost[i].x = lost[i].y = lost[i].z = std::numeric_limits<float>::quiet_NaN();
+        ++gone;
+      }
+    }
+    lost.is_dense = false;
+    ASSERT_GT(gone, 300u);
+    const nd::PreprocessResult fresh = pre.compute(lost);
+    nd::Preprocessor again = pre;
+    const nd::PreprocessResult reused = again.setEarlier(&first).compute(lost);
+    EXPECT_EQ(fresh.statistics.reused, 0u);
+    EXPECT_GT(reused.statistics.reused, reused.statistics.points.size() / 2) << threads;
+    EXPECT_LT(reused.statistics.reused, reused.statistics.points.size()) << threads;
+    EXPECT_EQ(reused.statistics.mean, fresh.statistics.mean);
+    EXPECT_EQ(reused.statistics.kth, fresh.statistics.kth);
+    EXPECT_EQ(reused.outliers, fresh.outliers);
+    EXPECT_EQ(reused.kept, fresh.kept);
+    EXPECT_EQ(reused.ground.inliers, fresh.ground.inliers);
+    // An earlier run of another cloud (a point that was not there) is not reused.
+    nd::Cloud moved = lost;
+    for (auto& p : moved.points)
+      if (std::isfinite(p.x)) p.x += 0.01f;
+    const nd::PreprocessResult other = again.setEarlier(&first).compute(moved);
+    EXPECT_EQ(other.statistics.reused, 0u);
+    EXPECT_EQ(other.kept, pre.compute(moved).kept);
   }
 }
 

@@ -34,6 +34,16 @@ struct PreprocessResult {
   /// `duplicates`, in that order). Later stages that query the whole sweep use it instead of
   /// indexing the sweep again. Null when outlier removal is off or had no statistics to make.
   std::shared_ptr<const NearestNeighbourIndex> distinct_index;
+  /// The statistics outlier removal made, per point of distinct_index (same order): input
+  /// index, mean distance to its outlier_k nearest other points and the k-th of those
+  /// distances. A later run on the same sweep with some of these points gone reuses them
+  /// (Preprocessor::setEarlier). Empty when outlier removal did not run.
+  struct NeighbourStatistics {
+    int k = 0;
+    Indices points;
+    std::vector<double> mean, kth;
+    std::size_t reused = 0;  ///< points whose values came from the earlier run
+  } statistics;
 };
 
 /// Input indices of the points whose x, y, z are all finite.
@@ -112,10 +122,20 @@ class Preprocessor {
     threads_ = threads;
     return *this;
   }
+  /// An earlier result on the same cloud of which some points have since become non-finite
+  /// (the robot's own returns, once found): the neighbour statistics of the points whose k
+  /// nearest neighbours were all kept (none of the lost points lies within their k-th
+  /// distance) are taken from it instead of searched again. The result is the same.
+  /// `earlier` must outlive compute().
+  Preprocessor& setEarlier(const PreprocessResult* earlier) {
+    earlier_ = earlier;
+    return *this;
+  }
 
  private:
   PreprocessParams params_;
   int threads_ = 1;
+  const PreprocessResult* earlier_ = nullptr;
 };
 
 }  // namespace novelty_detection

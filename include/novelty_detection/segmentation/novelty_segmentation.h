@@ -54,8 +54,11 @@ class NearestNeighbourIndex {
   double kthDistance(const Eigen::Vector3f& p, int k) const;
   /// For every indexed point (in build order), the mean distance to its k nearest other
   /// indexed points (k clamped to size - 1; 0 for a single point), on up to `threads`
-  /// threads; the result does not depend on it.
-  std::vector<double> meanNeighbourDistances(int k, int threads = 1) const;
+  /// threads; the result does not depend on it. With `kth`, each one's k-th distance too.
+  std::vector<double> meanNeighbourDistances(int k, int threads = 1,
+                                             std::vector<double>* kth = nullptr) const;
+  /// The same for the indexed point `id` alone (equal to its entry above).
+  double meanNeighbourDistance(int id, int k, double* kth = nullptr) const;
 
  private:
   struct Impl;
