@@ -124,7 +124,7 @@ bool markSelfReturns(Detection& d) {
       [&reference_points](const Eigen::Vector3f& p, double r) {
         return reference_points.within(p, r);
       },
-      current_within);
+      current_within, d.params.compute.resolved());
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "common/knn.h"
+#include "common/parallel.h"
 #include "novelty_detection/preprocess/preprocess.h"
 
 namespace novelty_detection {
@@ -88,25 +89,30 @@ constexpr double kFrameRatio = 2.0;
 template <class MapWithin>
 void markMatches(const Points& a, const std::vector<int>& a_index, const detail::KnnTree& own,
                  const detail::KnnTree& b, double tol, double novelty_distance, const Cloud& cloud,
-                 const MapWithin& within, std::vector<std::uint8_t>* mask) {
+                 const MapWithin& within, int threads, std::vector<std::uint8_t>* mask) {
   // The point's own sampling spacing: its k-th nearest point other than itself (k clamped to
   // the points there are), i.e. the (k+1)-th nearest with itself counted.
   const int k = std::min<int>(kSpacingNeighbours, static_cast<int>(own.size()) - 1) + 1;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    // Cheapest test first: a point the map explains within both distances fits neither rule
-    // (most of a sweep), whatever the robot's frame says.
-    const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
-    if (within(p, std::min(tol, novelty_distance))) continue;
-    const double ds = b.nearestDistance(a[i]);
-    // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
-    if (!(ds <= tol) && own.atLeast(a[i], k, [ds](float d2) {
-          return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
-        }))
-      continue;
-    const bool plain = ds <= tol && !within(p, tol);
-    const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
-    if (plain || sparse) (*mask)[a_index[i]] = 1;
-  }
+  // Blocks of points on `threads` threads: each point writes only its own (distinct) slot.
+  constexpr int kBlock = 1024;
+  const int n = static_cast<int>(a.size());
+  detail::parallelFor((n + kBlock - 1) / kBlock, threads, [&](int block) {
+    for (int i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
+      // Cheapest test first: a point the map explains within both distances fits neither rule
+      // (most of a sweep), whatever the robot's frame says.
+      const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
+      if (within(p, std::min(tol, novelty_distance))) continue;
+      const double ds = b.nearestDistance(a[i]);
+      // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
+      if (!(ds <= tol) && own.atLeast(a[i], k, [ds](float d2) {
+            return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
+          }))
+        continue;
+      const bool plain = ds <= tol && !within(p, tol);
+      const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
+      if (plain || sparse) (*mask)[a_index[i]] = 1;
+    }
+  });
 }
 
 }  // namespace
@@ -136,7 +142,7 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m,
                             const NearestWithin& reference_within,
-                            const NearestWithin& current_within) {
+                            const NearestWithin& current_within, int threads) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -163,15 +169,15 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       nearInSensorFrame(current, cd.unique, params.min_range_m, max_range, body, &ci, &s.current);
   if (rn.size() >= 2 && cn.size() >= 2) {
     // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
-    const detail::KnnTree rn_tree(rn), cn_tree(cn);
-    std::vector<double> spacing = rn_tree.kthNeighbourDistances(1);
+    const detail::KnnTree rn_tree(rn, threads), cn_tree(cn, threads);
+    std::vector<double> spacing = rn_tree.kthNeighbourDistances(1, threads);
     std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
     s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
     // Repeats of a position do not change a nearest distance: an index over every finite
     // reference point serves as well as one over the distinct ones.
     detail::KnnTree reference_map, current_map;
-    if (!reference_within) reference_map = detail::KnnTree(pointsAt(reference, rd.unique));
-    if (!current_within) current_map = detail::KnnTree(pointsAt(current, cd.unique));
+    if (!reference_within) reference_map = detail::KnnTree(pointsAt(reference, rd.unique), threads);
+    if (!current_within) current_map = detail::KnnTree(pointsAt(current, cd.unique), threads);
     const auto to_reference = [&](const Eigen::Vector3f& p, double r) {
       return reference_within ? reference_within(p, r) : reference_map.anyWithin(p, r);
     };
@@ -179,8 +185,10 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       return current_within ? current_within(p, r) : current_map.anyWithin(p, r);
     };
     const double nd = std::max(0.0, novelty_distance_m);
-    markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, &s.current);
-    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, &s.reference);
+    markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, threads,
+                &s.current);
+    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, threads,
+                &s.reference);
   }
   rd.copyToRepeats(&s.reference);
   cd.copyToRepeats(&s.current);

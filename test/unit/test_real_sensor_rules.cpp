@@ -250,6 +250,10 @@ TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
   EXPECT_EQ(kept.current, built.current);
   EXPECT_EQ(kept.reference, built.reference);
   EXPECT_EQ(kept.current_count, built.current_count);
+  // On three threads: the same marks.
+  const SelfReturns threaded = findSelfReturns(ref, cur, p, 0.05, {}, {}, 3);
+  EXPECT_EQ(threaded.current, built.current);
+  EXPECT_EQ(threaded.reference, built.reference);
   // The current sweep's index from pre-processing (its distinct finite points, here with
   // repeats and a missing point in the sweep) serves the other direction: the same marks.
   Cloud cur_repeated = cur;

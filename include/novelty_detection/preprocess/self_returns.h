@@ -65,10 +65,11 @@ using NearestWithin = std::function<bool(const Eigen::Vector3f&, double radius)>
 
 /// `reference_within` and `current_within` (optional): that test against the finite points of
 /// each cloud, when the caller keeps an index of them (a reference model, the current sweep's
-/// pre-processing); else one is built here.
+/// pre-processing); else one is built here. They are called from up to `threads` threads at
+/// once; the marks do not depend on the thread count.
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0,
                             const NearestWithin& reference_within = {},
-                            const NearestWithin& current_within = {});
+                            const NearestWithin& current_within = {}, int threads = 1);
 
 }  // namespace novelty_detection
