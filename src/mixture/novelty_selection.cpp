@@ -1,6 +1,8 @@
 #include "novelty_detection/mixture/novelty_selection.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -62,15 +64,12 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
       Eigen::VectorXd alpha;
       double total;
     };
-    std::vector<Dual> duals;
-    auto addDual = [&](const Eigen::VectorXd& beta) {
-      if (beta.size() != q.size()) return;  // solved transposed: no prices
+    auto dualOf = [&](const Eigen::VectorXd& beta) {
       Dual dual;
       dual.alpha = (d.rowwise() + beta.transpose()).rowwise().minCoeff();
       dual.total = p.dot(dual.alpha) - q.dot(beta);
-      duals.push_back(std::move(dual));
+      return dual;
     };
-    addDual(full.capacity_prices);
     struct Candidate {
       Eigen::Index i;
       double ub, lb;
@@ -90,17 +89,11 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     if (cands.empty()) break;
     std::stable_sort(cands.begin(), cands.end(),
                      [](const Candidate& a, const Candidate& b) { return a.ub < b.ub; });
-    // Candidates in order of their upper bounds, up to one per thread at a time, each solved
-    // unless its lower bound exceeds the best value before its batch; the batch's values are
-    // then taken in order. A candidate solved only because of the batching has a value
-    // above the best by more than the ties' tolerance, so the choice is the serial one.
-    double best = std::numeric_limits<double>::infinity();
-    Eigen::Index best_i = -1;
-    auto lowerBound = [&](const Candidate& c) {
+    auto lowerBound = [&](const Candidate& c, const std::vector<Dual>& known) {
       double lb = c.lb;
       const double rest = mass - p[c.i];
       if (!(rest > 0) || rest > q_mass) return lb;
-      for (const Dual& dual : duals) {
+      for (const Dual& dual : known) {
         // Round-off margin: the bound only skips solves, it must never exceed the value.
         const double v = (dual.total - p[c.i] * dual.alpha[c.i]) / rest;
         lb = std::max(lb, v - 1e-9 * std::abs(v));
@@ -109,35 +102,53 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     };
     // Each lane's weights: this round's, the candidate's emptied while it is solved.
     for (Eigen::VectorXd& w : lane_p) w = p;
-    std::vector<const Candidate*> batch;
-    std::vector<EmdResult> results;
-    for (std::size_t next = 0; next < cands.size();) {
-      batch.clear();
-      while (next < cands.size() && static_cast<int>(batch.size()) < lanes) {
-        const Candidate& c = cands[next++];
-        if (best_i >= 0 && lowerBound(c) > best * (1.0 + 1e-9) + 1e-15) continue;
-        batch.push_back(&c);
-      }
-      results.assign(batch.size(), EmdResult());  // an emptied Theta has nothing left to move
-      detail::parallelFor(static_cast<int>(batch.size()), lanes, [&](int k) {
-        const Eigen::Index i = batch[static_cast<std::size_t>(k)]->i;
-        if (!(mass - p[i] > 0)) return;
-        Eigen::VectorXd& w = lane_p[static_cast<std::size_t>(k)];
-        w[i] = 0.0;
-        results[static_cast<std::size_t>(k)] =
-            solvers[static_cast<std::size_t>(k)].solveWithPrices(w, q);
-        w[i] = p[i];
-      });
-      for (std::size_t k = 0; k < batch.size(); ++k) {
-        const Eigen::Index i = batch[k]->i;
-        if (mass - p[i] > 0) ++out.exact_evaluations;
-        const double value = results[k].distance;
-        addDual(results[k].capacity_prices);
-        const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
-        if (best_i < 0 || value < best - tol || (value <= best + tol && i < best_i)) {
-          best = value;
-          best_i = i;
+    // Candidates in order of their upper bounds, dealt to the lanes in turn (lane k takes
+    // the k-th, (k + lanes)-th, ...); each is solved unless its lower bound, from the prices
+    // of the full solve and of the lane's own solves, exceeds the best value any lane has
+    // found. That value is never below the round's minimum, so a candidate skipped has a
+    // value above the minimum by more than the ties' tolerance; the values found are then
+    // compared in the serial order, and the choice is the serial one for any lane count.
+    std::vector<double> value(cands.size(), std::numeric_limits<double>::quiet_NaN());
+    std::atomic<double> shared_best{std::numeric_limits<double>::infinity()};
+    std::vector<int> solved(static_cast<std::size_t>(lanes), 0);
+    detail::parallelFor(lanes, lanes, [&](int lane) {
+      std::vector<Dual> known;
+      if (full.capacity_prices.size() == q.size())  // none when solved transposed
+        known.push_back(dualOf(full.capacity_prices));
+      Eigen::VectorXd& w = lane_p[static_cast<std::size_t>(lane)];
+      const EmdSolver& lane_solver = solvers[static_cast<std::size_t>(lane)];
+      for (std::size_t c = static_cast<std::size_t>(lane); c < cands.size();
+           c += static_cast<std::size_t>(lanes)) {
+        const Candidate& cand = cands[c];
+        const double best = shared_best.load(std::memory_order_relaxed);
+        if (std::isfinite(best) && lowerBound(cand, known) > best * (1.0 + 1e-9) + 1e-15) continue;
+        const Eigen::Index i = cand.i;
+        EmdResult result;  // an emptied Theta has nothing left to move
+        if (mass - p[i] > 0) {
+          w[i] = 0.0;
+          result = lane_solver.solveWithPrices(w, q);
+          w[i] = p[i];
+          ++solved[static_cast<std::size_t>(lane)];
+          if (result.capacity_prices.size() == q.size())
+            known.push_back(dualOf(result.capacity_prices));
         }
+        value[c] = result.distance;
+        double seen = shared_best.load(std::memory_order_relaxed);
+        while (result.distance < seen && !shared_best.compare_exchange_weak(
+                                             seen, result.distance, std::memory_order_relaxed)) {
+        }
+      }
+    });
+    for (int count : solved) out.exact_evaluations += count;
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Index best_i = -1;
+    for (std::size_t c = 0; c < cands.size(); ++c) {
+      if (std::isnan(value[c])) continue;  // skipped: above the minimum
+      const Eigen::Index i = cands[c].i;
+      const double tol = best_i < 0 ? 0.0 : 1e-12 * std::max(1.0, best);
+      if (best_i < 0 || value[c] < best - tol || (value[c] <= best + tol && i < best_i)) {
+        best = value[c];
+        best_i = i;
       }
     }
     const double decrease = current - best;

@@ -130,12 +130,13 @@ TEST(NoveltySelection, PruningAgreesWithBruteForce) {
     p.min_relative_decrease = 0.02;
     p.ground_distance = trial % 2 ? "euclidean" : "wasserstein";
     const SelectionResult fast = GreedyNoveltySelector(p).select(cur, ref);
-    // The candidates solved in batches on several threads: the same choices, bit for bit.
+    // The candidates dealt to lanes on several threads: the same choices, bit for bit (a
+    // lane may skip more or fewer candidates than the serial order does).
     for (int threads : {2, 3}) {
       const SelectionResult batched = GreedyNoveltySelector(p).setThreads(threads).select(cur, ref);
       EXPECT_EQ(batched.novel, fast.novel) << "trial " << trial << " threads " << threads;
       EXPECT_EQ(batched.emd_trace, fast.emd_trace) << "trial " << trial;
-      EXPECT_GE(batched.exact_evaluations, fast.exact_evaluations);
+      if (!fast.novel.empty()) EXPECT_GT(batched.exact_evaluations, 0);
     }
 
     const Eigen::MatrixXd d =
