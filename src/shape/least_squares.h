@@ -1,16 +1,20 @@
 // A small bounded Levenberg-Marquardt solver for the superquadric fits, internal to the shape
-// stage. Ceres' general machinery (a program per problem, validation of every residual and
-// Jacobian entry, a dense Jacobian copy, a projected line search of several evaluations per
-// step) costs about as much as the residuals of an 11-parameter fit; this solver evaluates the
-// same Ceres cost functions and nothing else.
+// stage. Ceres' general machinery (a program per problem, a check of every residual and
+// Jacobian entry, a copy of the Jacobian into its own matrix, a gradient evaluation at every
+// line-search trial and a separate cost evaluation of the step) costs about as much as the
+// residuals of an 11-parameter fit; this solver evaluates the same Ceres cost functions, once
+// per trial point, and nothing else.
 //
 // The method is Ceres' trust-region Levenberg-Marquardt (Nocedal & Wright 2006, ch. 10;
-// Madsen, Nielsen & Tingleff 2004): Jacobi column scaling fixed at the first Jacobian,
-// diag(J^T J) clamped to [1e-6, 1e32] over the radius as damping, the radius updated by the
-// step quality rho (x 1 / max(1/3, 1 - (2 rho - 1)^3) on success, halved with a doubling
-// factor on failure), a step accepted when rho > 1e-3, and Ceres' function, parameter and
-// gradient tolerances. A step leaving the box [lo, hi] is projected onto it, and rho compares
-// the cost change with the model's change along the projected step.
+// Madsen, Nielsen & Tingleff 2004), step for step: Jacobi column scaling fixed at the first
+// Jacobian, diag(J^T J) clamped to [1e-6, 1e32] over the radius as damping, the radius
+// updated by the step quality rho (x 1 / max(1/3, 1 - (2 rho - 1)^3) on success, halved with
+// a doubling factor on failure), rho the cost change over the linear model's change for the
+// full step, a step taken when rho > 1e-3, and Ceres' function, parameter and gradient
+// tolerances. A step is projected onto the box [lo, hi]; with the line search it is shortened
+// along its projected path until the cost decreases enough (Armijo, sufficient decrease 1e-4,
+// each trial from the polynomial through the values and slopes seen, within [1e-3, 0.6] of
+// the last), as Ceres does for bounded problems.
 #pragma once
 
 #include <ceres/cost_function.h>
