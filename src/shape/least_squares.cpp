@@ -16,8 +16,6 @@ namespace {
 
 constexpr int kN = kFitParameters;
 constexpr int kBlocks = 4;
-constexpr int kBlockSize[kBlocks] = {3, 2, 3, 3};
-constexpr int kBlockStart[kBlocks] = {0, 3, 5, 8};
 // Ceres' defaults for Levenberg-Marquardt.
 constexpr double kInitialRadius = 1e4;
 constexpr double kMaxRadius = 1e16;
@@ -98,13 +96,13 @@ class Evaluation {
     int largest = 0;
     for (const ceres::CostFunction* c : costs_) largest = std::max(largest, c->num_residuals());
     for (int b = 0; b < kBlocks; ++b)
-      blocks_[b].resize(static_cast<std::size_t>(largest) * kBlockSize[b]);
+      blocks_[b].resize(static_cast<std::size_t>(largest) * kBlockSizes[b]);
   }
 
   /// Evaluates at x; false when a cost function fails or gives a non-finite value.
   bool run(const FitVector& x, bool with_jacobian) {
     const double* parameters[kBlocks];
-    for (int b = 0; b < kBlocks; ++b) parameters[b] = x.data() + kBlockStart[b];
+    for (int b = 0; b < kBlocks; ++b) parameters[b] = x.data() + kBlockStarts[b];
     double* jacobians[kBlocks];
     for (int b = 0; b < kBlocks; ++b) jacobians[b] = blocks_[b].data();
     int row = 0;
@@ -114,8 +112,8 @@ class Evaluation {
         return false;
       if (with_jacobian) {
         for (int b = 0; b < kBlocks; ++b) {
-          jacobian.block(row, kBlockStart[b], m, kBlockSize[b]) =
-              Eigen::Map<const RowMajor>(blocks_[b].data(), m, kBlockSize[b]);
+          jacobian.block(row, kBlockStarts[b], m, kBlockSizes[b]) =
+              Eigen::Map<const RowMajor>(blocks_[b].data(), m, kBlockSizes[b]);
         }
       }
       row += m;

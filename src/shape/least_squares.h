@@ -25,8 +25,11 @@
 namespace novelty_detection {
 namespace detail {
 
-/// The 11 parameters of a superquadric fit: a (3), e (2), w (3), t (3), in that order.
+/// The 11 parameters of a superquadric fit: a (3), e (2), w (3), t (3), in that order, the
+/// parameter blocks of every superquadric cost.
 constexpr int kFitParameters = 11;
+constexpr int kBlockSizes[4] = {3, 2, 3, 3};
+constexpr int kBlockStarts[4] = {0, 3, 5, 8};
 using FitVector = std::array<double, kFitParameters>;
 
 struct LeastSquaresOptions {

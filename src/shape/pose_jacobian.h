@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 
+#include "shape/least_squares.h"
 #include "shape/superquadric_kernel.h"
 
 namespace novelty_detection {
@@ -30,9 +31,6 @@ inline void poseJacobian(const RotationTerms& rt, const Eigen::Vector3d& p,
     for (int i = 0; i < 3; ++i) jt[i] = g[i];
   }
 }
-
-/// Parameter block sizes of every superquadric cost: sizes, exponents, rotation, translation.
-constexpr int kBlockSizes[4] = {3, 2, 3, 3};
 
 /// Multiplies residual i's rows of the (row-major, possibly null) Jacobian blocks by `factor`.
 inline void scaleJacobianRow(double** jacobians, int i, double factor) {

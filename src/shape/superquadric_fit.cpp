@@ -71,9 +71,8 @@ int solveWithCeres(const std::vector<std::unique_ptr<ceres::CostFunction>>& per_
   } else if (robust_loss == "cauchy") {
     loss = new ceres::CauchyLoss(loss_scale);
   }
-  constexpr int kStart[4] = {0, 3, 5, 8}, kSize[4] = {3, 2, 3, 3};
   double* blocks[4];
-  for (int b = 0; b < 4; ++b) blocks[b] = x->data() + kStart[b];
+  for (int b = 0; b < 4; ++b) blocks[b] = x->data() + detail::kBlockStarts[b];
   for (const auto& c : per_point)
     problem.AddResidualBlock(c.get(), loss, blocks[0], blocks[1], blocks[2], blocks[3]);
   for (const auto& c : costs)
@@ -83,8 +82,8 @@ int solveWithCeres(const std::vector<std::unique_ptr<ceres::CostFunction>>& per_
     if (fixed[5 + k]) held.push_back(k);
   if (!held.empty()) problem.SetManifold(blocks[2], new ceres::SubsetManifold(3, held));
   for (int b = 0; b < 4; ++b) {
-    for (int k = 0; k < kSize[b]; ++k) {
-      const int i = kStart[b] + k;
+    for (int k = 0; k < detail::kBlockSizes[b]; ++k) {
+      const int i = detail::kBlockStarts[b] + k;
       if (std::isfinite(lo[i])) problem.SetParameterLowerBound(blocks[b], k, lo[i]);
       if (std::isfinite(hi[i])) problem.SetParameterUpperBound(blocks[b], k, hi[i]);
     }

@@ -32,20 +32,19 @@ class Separable : public ceres::CostFunction {
  public:
   Separable(const FitVector& c, double q, bool fail = false) : c_(c), q_(q), fail_(fail) {
     set_num_residuals(kFitParameters);
-    for (int size : {3, 2, 3, 3}) mutable_parameter_block_sizes()->push_back(size);
+    for (int size : nd::detail::kBlockSizes) mutable_parameter_block_sizes()->push_back(size);
   }
   bool Evaluate(double const* const* p, double* r, double** jac) const override {
     if (fail_) return false;
-    static constexpr int kStart[4] = {0, 3, 5, 8}, kSize[4] = {3, 2, 3, 3};
     for (int b = 0; b < 4; ++b) {
-      for (int k = 0; k < kSize[b]; ++k) {
-        const int i = kStart[b] + k;
+      for (int k = 0; k < nd::detail::kBlockSizes[b]; ++k) {
+        const int i = nd::detail::kBlockStarts[b] + k;
         const double d = p[b][k] - c_[i];
         const double s = 1.0 + i;
         r[i] = s * d + q_ * d * d * d;
         if (!jac) continue;
         for (int row = 0; row < kFitParameters; ++row)
-          jac[b][row * kSize[b] + k] = row == i ? s + 3.0 * q_ * d * d : 0.0;
+          jac[b][row * nd::detail::kBlockSizes[b] + k] = row == i ? s + 3.0 * q_ * d * d : 0.0;
       }
     }
     return true;
@@ -171,17 +170,17 @@ TEST(LeastSquares, ReachesCeresMinimaOnOneSidedSuperquadricViews) {
       ASSERT_TRUE(nd::detail::solveBounded({&cost}, &ours, lo, hi, {}, options, &summary));
 
       FitVector theirs = start;
-      double* blocks[4] = {theirs.data(), theirs.data() + 3, theirs.data() + 5, theirs.data() + 8};
+      double* blocks[4];
+      for (int b = 0; b < 4; ++b) blocks[b] = theirs.data() + nd::detail::kBlockStarts[b];
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
       ceres::Problem problem(problem_options);
       problem.AddResidualBlock(const_cast<nd::SuperquadricBatchResidual*>(&cost), nullptr,
                                blocks[0], blocks[1], blocks[2], blocks[3]);
-      for (int b : {0, 1, 3}) {
-        const int start_index = b == 0 ? 0 : b == 1 ? 3 : 8;
-        for (int k = 0; k < (b == 1 ? 2 : 3); ++k) {
-          problem.SetParameterLowerBound(blocks[b], k, lo[start_index + k]);
-          problem.SetParameterUpperBound(blocks[b], k, hi[start_index + k]);
+      for (int b : {0, 1, 3}) {  // the rotation is unbounded
+        for (int k = 0; k < nd::detail::kBlockSizes[b]; ++k) {
+          problem.SetParameterLowerBound(blocks[b], k, lo[nd::detail::kBlockStarts[b] + k]);
+          problem.SetParameterUpperBound(blocks[b], k, hi[nd::detail::kBlockStarts[b] + k]);
         }
       }
       ceres::Solver::Options solver_options;
