@@ -142,6 +142,10 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     model->gmm = summary->gmm;
   } else {
     s = simplify(params, reference, nullptr, nullptr);
+    // The map's outlier index and statistics serve no later step: free them before the
+    // model's own indexes are built.
+    s.pre.distinct_index.reset();
+    s.pre.statistics = {};
   }
   if (s.pre.kept.size() < 4) {
     throw std::invalid_argument("reference cloud has " + std::to_string(s.pre.kept.size()) +

@@ -67,9 +67,6 @@ Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* du
 
 namespace {
 
-/// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
-/// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
-/// spacing).
 /// The mean distances to the k nearest other points of `tree`'s points (input indices
 /// `points`, ascending), into `stats`. With the statistics of an earlier run over a superset
 /// of `points` (`earlier`, its index `earlier_index`; the same points at the same places),
@@ -128,8 +125,10 @@ void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& point
   for (char c : kept_values) stats->reused += c;
 }
 
-/// `index`, when given, receives the index built over the finite points of `indices`, and
-/// `stats` the neighbour statistics (reusing `earlier`'s where they hold).
+/// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
+/// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
+/// spacing). `index`, when given, receives the index built over the finite points of
+/// `indices`, and `stats` the neighbour statistics (reusing `earlier`'s where they hold).
 Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, double std_mul,
                             const Eigen::Vector3f* origin, Indices* removed, int threads,
                             std::shared_ptr<const NearestNeighbourIndex>* index = nullptr,
@@ -143,9 +142,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
     throw std::invalid_argument("removeSparseOutliers: the sensor origin is not finite");
   }
   if (removed) removed->clear();
-  std::vector<Eigen::Vector3f> pts;
   Indices valid;  // the finite subset of `indices`; non-finite ones count as removed
-  pts.reserve(indices.size());
   valid.reserve(indices.size());
   for (int i : indices) {
     if (i < 0 || i >= static_cast<int>(cloud.size())) {
@@ -153,15 +150,13 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
                                   " outside a cloud of " + std::to_string(cloud.size()) +
                                   " points");
     }
-    const Eigen::Vector3f p = cloud[i].getVector3fMap();
-    if (p.allFinite()) {
-      pts.push_back(p);
+    if (cloud[i].getVector3fMap().allFinite()) {
       valid.push_back(i);
     } else if (removed) {
       removed->push_back(i);
     }
   }
-  const int n = static_cast<int>(pts.size());
+  const int n = static_cast<int>(valid.size());
   if (n < 2) return valid;  // no neighbours, no statistics
 
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
@@ -173,7 +168,6 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
   neighbourStatistics(*tree, valid, k, threads, earlier ? &earlier->statistics : nullptr,
                       earlier ? earlier->distinct_index.get() : nullptr, &s);
   const std::vector<double>& mean_dist = s.mean;
-  if (index) *index = std::move(tree);
   auto limitOf = [n, std_mul](const std::vector<double>& v) {
     double mu = 0.0;
     for (double x : v) mu += x;
@@ -191,7 +185,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
   if (origin) {
     scaled = mean_dist;
     for (int j = 0; j < n; ++j)
-      scaled[j] /= std::max(1.0, static_cast<double>((pts[j] - *origin).norm()));
+      scaled[j] /= std::max(1.0, static_cast<double>((tree->point(j) - *origin).norm()));
     scaled_limit = limitOf(scaled);
   }
   auto inlier = [&](int j) {
@@ -207,6 +201,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
       removed->push_back(valid[j]);
     }
   }
+  if (index) *index = std::move(tree);
   return kept;
 }
 
