@@ -200,13 +200,18 @@ double meanOfRoots(const float* d2, int count) {
   return sum / count;
 }
 
+/// The largest of them as a distance.
+double lastRoot(const float* d2, int count) {
+  return std::sqrt(static_cast<double>(d2[count - 1]));
+}
+
 }  // namespace
 
 std::vector<double> KnnTree::meanNeighbourDistances(int k, int threads,
                                                     std::vector<double>* kth) const {
   if (kth) kth->assign(x_.size(), 0.0);
   return forEachNeighbourhood(k, threads, [kth](int index, const float* d2, int count) {
-    if (kth) (*kth)[index] = std::sqrt(static_cast<double>(d2[count - 1]));
+    if (kth) (*kth)[index] = lastRoot(d2, count);
     return meanOfRoots(d2, count);
   });
 }
@@ -216,11 +221,15 @@ double KnnTree::meanNeighbourDistance(int index, int k, double* kth) const {
   k = std::min(k, n - 1);
   if (kth) *kth = 0.0;
   if (k <= 0) return 0.0;
-  std::vector<float> d2(k);
+  // On the stack for the usual k (one query per point of a reused neighbourhood statistic).
+  constexpr int kStack = 32;
+  float stack[kStack];
+  std::vector<float> heap(k > kStack ? k : 0);
+  float* d2 = k > kStack ? heap.data() : stack;
   int count = 0;
-  searchFromLeaf(position_of_[index], k, d2.data(), &count);
-  if (kth) *kth = std::sqrt(static_cast<double>(d2[count - 1]));
-  return meanOfRoots(d2.data(), count);
+  searchFromLeaf(position_of_[index], k, d2, &count);
+  if (kth) *kth = lastRoot(d2, count);
+  return meanOfRoots(d2, count);
 }
 
 double KnnTree::nearestDistance(const Eigen::Vector3f& p) const {
@@ -275,7 +284,7 @@ bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {
   return forEachNeighbourhood(k, threads, [](int, const float* d2, int count) {
-    return std::sqrt(static_cast<double>(d2[count - 1]));  // d2 is sorted ascending
+    return lastRoot(d2, count);  // d2 is sorted ascending
   });
 }
 

@@ -94,8 +94,8 @@ class KnnTree {
   /// Median splits: 2^kMaxDepth leaves hold far more points than an index can address.
   static constexpr int kMaxDepth = 40;
 
-  /// Runs the k-nearest search for every point and stores reduce(sorted squared distances,
-  /// count) at the point's input position.
+  /// Runs the k-nearest search for every point and stores reduce(input position, sorted
+  /// squared distances, count) at the point's input position.
   template <class Reduce>
   std::vector<double> forEachNeighbourhood(int k, int threads, Reduce reduce) const;
   /// The k nearest other points of tree position t, searched bottom-up from its leaf.
