@@ -111,10 +111,10 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     std::vector<double> value(cands.size(), std::numeric_limits<double>::quiet_NaN());
     std::atomic<double> shared_best{std::numeric_limits<double>::infinity()};
     std::vector<int> solved(static_cast<std::size_t>(lanes), 0);
+    std::vector<Dual> full_dual;  // none when solved transposed
+    if (full.capacity_prices.size() == q.size()) full_dual.push_back(dualOf(full.capacity_prices));
     detail::parallelFor(lanes, lanes, [&](int lane) {
-      std::vector<Dual> known;
-      if (full.capacity_prices.size() == q.size())  // none when solved transposed
-        known.push_back(dualOf(full.capacity_prices));
+      std::vector<Dual> known = full_dual;
       Eigen::VectorXd& w = lane_p[static_cast<std::size_t>(lane)];
       const EmdSolver& lane_solver = solvers[static_cast<std::size_t>(lane)];
       for (std::size_t c = static_cast<std::size_t>(lane); c < cands.size();
