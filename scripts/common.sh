@@ -10,6 +10,11 @@ mkdir -p "$ROS_LOG_DIR"
 
 log() { printf '\033[1m[novelty_detection]\033[0m %s\n' "$*" >&2; }
 
+# Builds the named targets (scripts/build.sh) unless NOVELTY_SKIP_BUILD=1.
+build_tools() {
+  if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then bash "$REPO/scripts/build.sh" "$@"; fi
+}
+
 # Sources the devel space (its scripts read unset variables, so -u is lifted around it).
 source_devel() {
   local had_u=0

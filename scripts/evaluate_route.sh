@@ -17,9 +17,7 @@ SEED="${2:-1}"
 case "$N" in '' | *[!0-9]* | 0) log "N must be a positive integer, got '$N'"; exit 2 ;; esac
 case "$SEED" in '' | *[!0-9]*) log "SEED must be a non-negative integer, got '$SEED'"; exit 2 ;; esac
 BIN="$WS/devel/lib/novelty_detection"
-if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
-  bash "$REPO/scripts/build.sh" evaluate_route
-fi
+build_tools evaluate_route
 [ -x "$BIN/evaluate_route" ] || { log "missing $BIN/evaluate_route: run scripts/build.sh first"; exit 1; }
 OUT="$REPO/out/route"
 mkdir -p "$OUT"

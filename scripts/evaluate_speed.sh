@@ -20,9 +20,7 @@ DOCS_UPDATE=1
 [ "${1:-}" = "--no-docs" ] && { DOCS_UPDATE=0; shift; }
 OUT="${1:-$REPO/out/speed}"
 BIN="$WS/devel/lib/novelty_detection"
-if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
-  bash "$REPO/scripts/build.sh" simulate_scans novelty_detect baseline_detect evaluate
-fi
+build_tools simulate_scans novelty_detect baseline_detect evaluate
 mkdir -p "$OUT"
 
 simulate_once "$OUT/scenes/suite" --suite 30 --seed 1

@@ -26,9 +26,7 @@ BIN="$WS/devel/lib/novelty_detection"
 SUITE="$OUT/scenes"
 case "$N" in '' | *[!0-9]*) log "N must be a positive integer, got '$N'"; exit 2 ;; esac
 
-if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
-  bash "$REPO/scripts/build.sh" simulate_scans novelty_detect baseline_detect evaluate
-fi
+build_tools simulate_scans novelty_detect baseline_detect evaluate
 for tool in simulate_scans novelty_detect baseline_detect evaluate; do
   [ -x "$BIN/$tool" ] || { log "missing $BIN/$tool: run scripts/build.sh first"; exit 1; }
 done

@@ -20,9 +20,7 @@ OUT="${1:-$REPO/out/profile}"
 BIN="$WS/devel/lib/novelty_detection"
 SPEED="$REPO/out/speed/scenes"
 command -v perf > /dev/null || { log "perf is not installed (apt install linux-perf)"; exit 1; }
-if [ "${NOVELTY_SKIP_BUILD:-0}" != 1 ]; then
-  bash "$REPO/scripts/build.sh" simulate_scans novelty_detect
-fi
+build_tools simulate_scans novelty_detect
 mkdir -p "$OUT"
 printf 'compute:\n  threads: 1\n' > "$OUT/one_thread.yaml"
 # The scenes of scripts/evaluate_speed.sh.
