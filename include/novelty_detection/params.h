@@ -444,10 +444,11 @@ struct SuperquadricParams {
     f("epsilon_min", epsilon_min, {"lower bound of the shape exponents e1, e2", 0.01, 2.0});
     f("epsilon_max", epsilon_max, {"upper bound of the shape exponents e1, e2", 0.01, 4.0});
     f("corner_gain", corner_gain,
-      {"a segment's whole fit keeps shape exponents away from 1 (corners, flat faces) only when "
-       "they lower its mean surface distance by more than this fraction of an ellipsoid's "
-       "(e1 = e2 = 1) fit from the same pose; else the ellipsoid is kept (a one-sided view of a "
-       "round object stays round); 0: the exponents are always free",
+      {"a segment's whole fit, and each part of one split into several, keeps shape exponents "
+       "away from 1 (corners, flat faces) only when they lower its mean surface distance by "
+       "more than this fraction of an ellipsoid's (e1 = e2 = 1) fit from the same pose; else "
+       "the ellipsoid is kept (a one-sided view of a round object or limb stays round); 0: the "
+       "exponents are always free",
        0.0, 10.0});
     f("bounded_fit", bounded_fit,
       {"a segment's final fit is bounded by what the sweep observed around it: it pays for "

@@ -160,12 +160,24 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     part_points[k].push_back(fine[i]);
   }
   // Parts were fitted on few points while splitting and merging: polish each on its own
-  // (subsampled) fine points, the parts in parallel.
+  // (subsampled) fine points, the parts in parallel. A part is round unless its points demand
+  // corners, by the same rule as the whole segment's fit: the one-sided view of a limb or a
+  // trunk fits a box at the exponents' lower bound about as well as an ellipsoid.
   if (parts.size() > 1) {
+    SuperquadricFitter round_bounded(round);
+    if (bounds && !bounds->empty()) round_bounded.setBounds(bounds);
     detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
       if (part_points[k].empty()) return;
-      parts[k].fit = bounded.refine(subsample(part_points[k], params_.max_fit_points),
-                                    parts[k].fit.sq, -1, true, FitMeasures::kNone);
+      const Points3d data = subsample(part_points[k], params_.max_fit_points);
+      const Superquadric start = parts[k].fit.sq;
+      parts[k].fit = bounded.refine(data, start, -1, true, FitMeasures::kNone);
+      if (!round_check) return;
+      Superquadric round_start = start;
+      round_start.e1 = round_start.e2 = 1.0;
+      FitResult ellipse = round_bounded.refine(data, round_start, -1, true, FitMeasures::kNone);
+      if (meanSurfaceDistance(ellipse.sq, data) * (1.0 - params_.corner_gain) <=
+          meanSurfaceDistance(parts[k].fit.sq, data))
+        parts[k].fit = std::move(ellipse);
     });
   }
   for (std::size_t k = 0; k < parts.size(); ++k) {

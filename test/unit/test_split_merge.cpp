@@ -162,6 +162,50 @@ TEST(SplitMerge, PersonLikeCompositeIsExplainedByFewParts) {
   EXPECT_LT(sum / n, 4.0 * kSigma);
 }
 
+namespace {
+
+/// A one-sided view (sensor at `sensor`, noise sigma_m) of a union of parts: each part's
+/// samples that face the sensor and are not inside another part.
+Points3d oneSidedComposite(const std::vector<Superquadric>& parts, const Eigen::Vector3d& sensor,
+                           int per_part, double sigma_m, unsigned seed) {
+  Points3d out;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    for (const auto& p : samples::noisySamples(parts[k], per_part, sigma_m, seed + k, &sensor)) {
+      bool hidden = false;
+      for (std::size_t m = 0; m < parts.size(); ++m) {
+        hidden = hidden || (m != k && insideOutside(parts[m], p) < 1.0);
+      }
+      if (!hidden) out.push_back(p);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(ShapeRetrieval, PartsOfAPersonAreNotBoxesAtTheExponentBound) {
+  const Eigen::Vector3d sensor(-3.0, 0.0, 0.8);
+  for (unsigned seed : {11u, 12u}) {
+    // A person seen from one side at 2 cm noise (trunk, head, legs and arms, none of them
+    // with an exponent below 0.4): the parts' one-sided views fit a box at the exponents'
+    // lower bound about as well as a round shape, and are given round ones.
+    const std::vector<Superquadric> person = {
+        makeSq({0.12, 0.19, 0.27}, 0.5, 0.5, {0, 0, 0}, {0, 0, 1.1}),        // trunk
+        makeSq({0.095, 0.08, 0.115}, 1.0, 1.0, {0, 0, 0}, {0, 0, 1.53}),     // head
+        makeSq({0.075, 0.075, 0.38}, 0.4, 1.0, {0, 0, 0}, {0, -0.1, 0.46}),  // legs
+        makeSq({0.075, 0.075, 0.38}, 0.4, 1.0, {0, 0, 0}, {0, 0.1, 0.46}),
+        makeSq({0.05, 0.05, 0.28}, 0.4, 1.0, {0, 0, 0}, {0, -0.255, 1.05}),  // arms
+        makeSq({0.05, 0.05, 0.28}, 0.4, 1.0, {0, 0, 0}, {0, 0.255, 1.05})};
+    const Points3d person_pts = oneSidedComposite(person, sensor, 1500, 0.02, seed);
+    const ShapeRetrieval retrieval{SuperquadricParams()};
+    const auto person_parts = retrieval.recover(person_pts, subsample(person_pts, 200), 1);
+    ASSERT_GE(person_parts.size(), 3u) << "seed " << seed;
+    for (const auto& part : person_parts) {
+      EXPECT_GT(std::min(part.e1, part.e2), 0.4) << "seed " << seed << " part of " << part.points;
+    }
+  }
+}
+
 TEST(SplitMerge, RefusesEmptyInput) {
   EXPECT_THROW(SplitMerge(SuperquadricParams()).run({}), std::invalid_argument);
 }
