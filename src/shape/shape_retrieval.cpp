@@ -170,14 +170,22 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
       if (part_points[k].empty()) return;
       const Points3d data = subsample(part_points[k], params_.max_fit_points);
       const Superquadric start = parts[k].fit.sq;
+      if (round_check) {
+        // Round or free is chosen the way split and merge ranks its fits (few points, few
+        // iterations); only the chosen model is polished.
+        const Points3d few = subsample(data, params_.split_fit_points);
+        Superquadric round_start = start;
+        round_start.e1 = round_start.e2 = 1.0;
+        const FitResult ellipse = round_fitter.refine(
+            few, round_start, std::min(params_.max_iterations, params_.split_iterations), false,
+            FitMeasures::kNone);
+        if (meanSurfaceDistance(ellipse.sq, few) * (1.0 - params_.corner_gain) <=
+            meanSurfaceDistance(start, few)) {
+          parts[k].fit = round_bounded.refine(data, ellipse.sq, -1, true, FitMeasures::kNone);
+          return;
+        }
+      }
       parts[k].fit = bounded.refine(data, start, -1, true, FitMeasures::kNone);
-      if (!round_check) return;
-      Superquadric round_start = start;
-      round_start.e1 = round_start.e2 = 1.0;
-      FitResult ellipse = round_bounded.refine(data, round_start, -1, true, FitMeasures::kNone);
-      if (meanSurfaceDistance(ellipse.sq, data) * (1.0 - params_.corner_gain) <=
-          meanSurfaceDistance(parts[k].fit.sq, data))
-        parts[k].fit = std::move(ellipse);
     });
   }
   for (std::size_t k = 0; k < parts.size(); ++k) {
