@@ -10,6 +10,8 @@
 #include <limits>
 #include <utility>
 
+#include "novelty_detection/shape/superquadric_cost.h"
+
 namespace novelty_detection {
 namespace detail {
 namespace {
@@ -93,8 +95,12 @@ class Evaluation {
     for (const ceres::CostFunction* c : costs_) rows += c->num_residuals();
     residuals.resize(rows);
     jacobian.resize(rows, kN);
+    // Batches of eq. 3 write their columns in place; the others into Ceres' blocks, copied.
+    for (const ceres::CostFunction* c : costs_)
+      batches_.push_back(dynamic_cast<const SuperquadricBatchResidual*>(c));
     int largest = 0;
-    for (const ceres::CostFunction* c : costs_) largest = std::max(largest, c->num_residuals());
+    for (std::size_t k = 0; k < costs_.size(); ++k)
+      if (!batches_[k]) largest = std::max(largest, costs_[k]->num_residuals());
     for (int b = 0; b < kBlocks; ++b)
       blocks_[b].resize(static_cast<std::size_t>(largest) * kBlockSizes[b]);
   }
@@ -106,8 +112,17 @@ class Evaluation {
     double* jacobians[kBlocks];
     for (int b = 0; b < kBlocks; ++b) jacobians[b] = blocks_[b].data();
     int row = 0;
-    for (const ceres::CostFunction* c : costs_) {
+    for (std::size_t k = 0; k < costs_.size(); ++k) {
+      const ceres::CostFunction* c = costs_[k];
       const int m = c->num_residuals();
+      if (batches_[k]) {
+        if (!batches_[k]->EvaluateColumnMajor(parameters, residuals.data() + row,
+                                              with_jacobian ? jacobian.data() + row : nullptr,
+                                              jacobian.rows()))
+          return false;
+        row += m;
+        continue;
+      }
       if (!c->Evaluate(parameters, residuals.data() + row, with_jacobian ? jacobians : nullptr))
         return false;
       if (with_jacobian) {
@@ -130,6 +145,7 @@ class Evaluation {
 
  private:
   const std::vector<const ceres::CostFunction*>& costs_;
+  std::vector<const SuperquadricBatchResidual*> batches_;  ///< per cost, null: not a batch
   std::vector<double> blocks_[kBlocks];
 };
 

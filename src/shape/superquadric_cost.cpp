@@ -95,8 +95,59 @@ SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Ve
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
 }
 
+namespace {
+
+/// Ceres' row-major blocks (null ones skipped), from their first row.
+detail::JacobianOut rowMajor(double* const* jacobians) {
+  detail::JacobianOut out;
+  for (int b = 0; b < 4; ++b) {
+    out.block[b] = jacobians[b];
+    out.row_stride[b] = detail::kBlockSizes[b];
+    out.col_stride[b] = 1;
+  }
+  return out;
+}
+
+/// The 11 parameters' columns of a column-major matrix of height `height`, from `first`
+/// (the entry of the first row and parameter).
+detail::JacobianOut columnMajor(double* first, Eigen::Index height) {
+  detail::JacobianOut out;
+  for (int b = 0; b < 4; ++b) {
+    out.block[b] = first + detail::kBlockStarts[b] * height;
+    out.row_stride[b] = 1;
+    out.col_stride[b] = height;
+  }
+  return out;
+}
+
+/// The same layout from `rows` rows further down.
+detail::JacobianOut advanced(const detail::JacobianOut& in, Eigen::Index rows) {
+  detail::JacobianOut out = in;
+  for (int b = 0; b < 4; ++b)
+    if (out.block[b]) out.block[b] += rows * out.row_stride[b];
+  return out;
+}
+
+}  // namespace
+
 bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double* residuals,
                                          double** jacobians) const {
+  if (!jacobians) return evaluate(parameters, residuals, nullptr);
+  // Ceres' Jacobian blocks are row-major: the rows of residual i start at i * size(b).
+  const detail::JacobianOut out = rowMajor(jacobians);
+  return evaluate(parameters, residuals, &out);
+}
+
+bool SuperquadricBatchResidual::EvaluateColumnMajor(double const* const* parameters,
+                                                    double* residuals, double* jacobian,
+                                                    Eigen::Index height) const {
+  if (!jacobian) return evaluate(parameters, residuals, nullptr);
+  const detail::JacobianOut out = columnMajor(jacobian, height);
+  return evaluate(parameters, residuals, &out);
+}
+
+bool SuperquadricBatchResidual::evaluate(double const* const* parameters, double* residuals,
+                                         const detail::JacobianOut* out) const {
   // Ceres evaluates the cost at a candidate step and, when it accepts the step, the Jacobian
   // at the same parameters: the terms (the logs and exps, most of the cost) are then reused.
   using detail::kBlockSizes;
@@ -116,22 +167,15 @@ bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double
     cached_ = true;
   }
   Eigen::Map<Eigen::VectorXd>(residuals, n) = terms_.col(detail::kResidual);
-  // Ceres' Jacobian blocks are row-major: the rows of residual i start at i * size(b).
-  auto rows = [jacobians](Eigen::Index first, double** out) {
-    for (int b = 0; b < 4; ++b)
-      out[b] = jacobians[b] ? jacobians[b] + kBlockSizes[b] * first : nullptr;
-  };
   for (Eigen::Index begin = 0; begin < n; begin += kChunk) {
     const Eigen::Index m = std::min(kChunk, n - begin);
-    double* chunk[4];
-    if (jacobians) {
-      rows(begin, chunk);
-      detail::superquadricJacobian(parameters, terms_.data(), n, begin, m, chunk);
+    if (out) {
+      detail::superquadricJacobian(parameters, terms_.data(), n, begin, m, advanced(*out, begin));
     }
     if (surface_weight_ > 0.0) {
-      if (jacobians) rows(n + begin, chunk);
+      const detail::JacobianOut surface = out ? advanced(*out, n + begin) : detail::JacobianOut();
       detail::superquadricSurfaceResiduals(parameters, terms_.data(), n, begin, m, surface_weight_,
-                                           residuals + n + begin, jacobians ? chunk : nullptr);
+                                           residuals + n + begin, out ? &surface : nullptr);
     }
   }
   return true;

@@ -41,37 +41,37 @@ using ChunkArray = Eigen::Array<double, Eigen::Dynamic, 1, Eigen::ColMajor, kKer
 
 namespace {
 
-/// Rotation and translation rows (jw, jt: the chunk's first rows, null ones skipped) of
-/// residuals whose gradient in the canonical frame is (gx, gy, gz) at the points (px, py, pz).
+/// Column k of block b of the chunk's n rows.
+void store(const JacobianOut& out, int b, int k, const ChunkArray& v, Eigen::Index n) {
+  double* first = out.block[b] + k * out.col_stride[b];
+  if (out.row_stride[b] == 1) {
+    Eigen::Map<Eigen::ArrayXd>(first, n) = v.head(n);
+  } else {
+    for (Eigen::Index i = 0; i < n; ++i) first[i * out.row_stride[b]] = v[i];
+  }
+}
+
+/// Rotation and translation rows (blocks 2 and 3 of `out`, null ones skipped) of residuals
+/// whose gradient in the canonical frame is (gx, gy, gz) at the points (px, py, pz).
 void writePoseRows(const RotationTerms& rt, const ChunkArray& px, const ChunkArray& py,
                    const ChunkArray& pz, const ChunkArray& gx, const ChunkArray& gy,
-                   const ChunkArray& gz, Eigen::Index n, double* jw, double* jt) {
+                   const ChunkArray& gz, Eigen::Index n, const JacobianOut& out) {
   using A = ChunkArray;
   const double wx = rt.w.x(), wy = rt.w.y(), wz = rt.w.z();
-  if (jw) {
+  if (out.block[2]) {
     // h = dr_dp x p; J_r^T h = h + c1 (w x h) + c2 w x (w x h).
     const A hx = gy * pz - gz * py, hy = gz * px - gx * pz, hz = gx * py - gy * px;
     const A mx = wy * hz - wz * hy, my = wz * hx - wx * hz, mz = wx * hy - wy * hx;
-    const A jx = hx + rt.c1 * mx + rt.c2 * (wy * mz - wz * my);
-    const A jy = hy + rt.c1 * my + rt.c2 * (wz * mx - wx * mz);
-    const A jz = hz + rt.c1 * mz + rt.c2 * (wx * my - wy * mx);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jw[3 * i] = jx[i];
-      jw[3 * i + 1] = jy[i];
-      jw[3 * i + 2] = jz[i];
-    }
+    store(out, 2, 0, hx + rt.c1 * mx + rt.c2 * (wy * mz - wz * my), n);
+    store(out, 2, 1, hy + rt.c1 * my + rt.c2 * (wz * mx - wx * mz), n);
+    store(out, 2, 2, hz + rt.c1 * mz + rt.c2 * (wx * my - wy * mx), n);
   }
-  if (jt) {
+  if (out.block[3]) {
     // -(Exp(w) dr_dp) = -(v + sa (w x v) + sb w x (w x v)).
     const A vx = wy * gz - wz * gy, vy = wz * gx - wx * gz, vz = wx * gy - wy * gx;
-    const A jx = -(gx + rt.sa * vx + rt.sb * (wy * vz - wz * vy));
-    const A jy = -(gy + rt.sa * vy + rt.sb * (wz * vx - wx * vz));
-    const A jz = -(gz + rt.sa * vz + rt.sb * (wx * vy - wy * vx));
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jt[3 * i] = jx[i];
-      jt[3 * i + 1] = jy[i];
-      jt[3 * i + 2] = jz[i];
-    }
+    store(out, 3, 0, -(gx + rt.sa * vx + rt.sb * (wy * vz - wz * vy)), n);
+    store(out, 3, 1, -(gy + rt.sa * vy + rt.sb * (wz * vx - wx * vz)), n);
+    store(out, 3, 2, -(gz + rt.sa * vz + rt.sb * (wx * vy - wy * vx)), n);
   }
 }
 
@@ -129,7 +129,7 @@ void superquadricTerms(double const* const* parameters, const double* q_data, do
 
 void superquadricJacobian(double const* const* parameters, const double* terms_data,
                           Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
-                          double** jacobians) {
+                          const JacobianOut& out) {
   const Eigen::Map<const Eigen::MatrixXd> terms_(terms_data, rows, kTerms);
   using A = ChunkArray;
   const RotationTerms rt = rotationTerms(parameters[2]);
@@ -147,33 +147,23 @@ void superquadricJacobian(double const* const* parameters, const double* terms_d
   const A gx = k * wa * wxw * (2.0 / e1) * (px / (a[0] * a[0])) / rx;
   const A gy = k * wa * wyw * (2.0 / e1) * (py / (a[1] * a[1])) / ry;
   const A gz = k * wb * (2.0 / e1) * (pz / (a[2] * a[2])) / rz;
-  // Ceres' Jacobian blocks are row-major: row i of block b starts at i * size(b).
-  if (jacobians[0]) {
+  if (out.block[0]) {
     const A half = 0.5 * big_s * (big_e - 1.0);
-    const A ja0 = half / a[0] - k * wa * wxw * (2.0 / (e1 * a[0])) * sx / rx;
-    const A ja1 = half / a[1] - k * wa * wyw * (2.0 / (e1 * a[1])) * sy / ry;
-    const A ja2 = half / a[2] - k * wb * (2.0 / (e1 * a[2])) * sz / rz;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[0][3 * i] = ja0[i];
-      jacobians[0][3 * i + 1] = ja1[i];
-      jacobians[0][3 * i + 2] = ja2[i];
-    }
+    store(out, 0, 0, half / a[0] - k * wa * wxw * (2.0 / (e1 * a[0])) * sx / rx, n);
+    store(out, 0, 1, half / a[1] - k * wa * wyw * (2.0 / (e1 * a[1])) * sy / ry, n);
+    store(out, 0, 2, half / a[2] - k * wb * (2.0 / (e1 * a[2])) * sz / rz, n);
   }
-  if (jacobians[1]) {
+  if (out.block[1]) {
     const A se = big_s * big_e;
-    const A je0 = se * (term(kL) - wa * term(kLa) - wb * term(kLb));
-    const A je1 = se * wa * (term(kLxy) - wxw * term(kLx) - wyw * term(kLy));
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[1][2 * i] = je0[i];
-      jacobians[1][2 * i + 1] = je1[i];
-    }
+    store(out, 1, 0, se * (term(kL) - wa * term(kLa) - wb * term(kLb)), n);
+    store(out, 1, 1, se * wa * (term(kLxy) - wxw * term(kLx) - wyw * term(kLy)), n);
   }
-  writePoseRows(rt, px, py, pz, gx, gy, gz, n, jacobians[2], jacobians[3]);
+  writePoseRows(rt, px, py, pz, gx, gy, gz, n, out);
 }
 
 void superquadricSurfaceResiduals(double const* const* parameters, const double* terms_data,
                                   Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
-                                  double weight, double* residuals, double** jacobians) {
+                                  double weight, double* residuals, const JacobianOut* out) {
   const Eigen::Map<const Eigen::MatrixXd> terms_(terms_data, rows, kTerms);
   using A = ChunkArray;
   const double* a = parameters[0];
@@ -193,7 +183,7 @@ void superquadricSurfaceResiduals(double const* const* parameters, const double*
   const A norm = (vx.square() + vy.square() + vz.square() + kTinyNorm2).sqrt();
   const A r = (1.0 - g) / norm;
   Eigen::Map<Eigen::ArrayXd>(residuals, n) = weight * r;
-  if (!jacobians) return;
+  if (!out) return;
 
   // weight * dr along one parameter from the derivatives of lx, ly, lz, hx, hy, hz and
   // whether the parameter is e1 or e2 (which also enter la and the numerator directly).
@@ -212,28 +202,25 @@ void superquadricSurfaceResiduals(double const* const* parameters, const double*
     const A dnorm = (vx * dvx + vy * dvy + vz * dvz) / norm;
     return weight * (dnum - r * dnorm) / norm;
   };
-  if (jacobians[0]) {
-    const A ja0 = derivative(-2.0 * px * hx / (a[0] * e2), zero, zero,
-                             -2.0 * kSqTinySquared * a[0] * px / bx.square(), zero, zero, 0, 0);
-    const A ja1 = derivative(zero, -2.0 * py * hy / (a[1] * e2), zero, zero,
-                             -2.0 * kSqTinySquared * a[1] * py / by.square(), zero, 0, 0);
-    const A ja2 = derivative(zero, zero, -2.0 * pz * hz / (a[2] * e1), zero, zero,
-                             -2.0 * kSqTinySquared * a[2] * pz / bz.square(), 0, 0);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[0][3 * i] = ja0[i];
-      jacobians[0][3 * i + 1] = ja1[i];
-      jacobians[0][3 * i + 2] = ja2[i];
-    }
+  if (out->block[0]) {
+    store(*out, 0, 0,
+          derivative(-2.0 * px * hx / (a[0] * e2), zero, zero,
+                     -2.0 * kSqTinySquared * a[0] * px / bx.square(), zero, zero, 0, 0),
+          n);
+    store(*out, 0, 1,
+          derivative(zero, -2.0 * py * hy / (a[1] * e2), zero, zero,
+                     -2.0 * kSqTinySquared * a[1] * py / by.square(), zero, 0, 0),
+          n);
+    store(*out, 0, 2,
+          derivative(zero, zero, -2.0 * pz * hz / (a[2] * e1), zero, zero,
+                     -2.0 * kSqTinySquared * a[2] * pz / bz.square(), 0, 0),
+          n);
   }
-  if (jacobians[1]) {
-    const A je0 = derivative(zero, zero, -lz / e1, zero, zero, zero, 1, 0);
-    const A je1 = derivative(-lx / e2, -ly / e2, zero, zero, zero, zero, 0, 1);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      jacobians[1][2 * i] = je0[i];
-      jacobians[1][2 * i + 1] = je1[i];
-    }
+  if (out->block[1]) {
+    store(*out, 1, 0, derivative(zero, zero, -lz / e1, zero, zero, zero, 1, 0), n);
+    store(*out, 1, 1, derivative(-lx / e2, -ly / e2, zero, zero, zero, zero, 0, 1), n);
   }
-  if (!jacobians[2] && !jacobians[3]) return;
+  if (!out->block[2] && !out->block[3]) return;
   // The gradient in the canonical frame (already weighted).
   const A gx = derivative(2.0 * hx / e2, zero, zero, (bx - 2.0 * px.square()) / bx.square(), zero,
                           zero, 0, 0);
@@ -241,8 +228,7 @@ void superquadricSurfaceResiduals(double const* const* parameters, const double*
                           zero, 0, 0);
   const A gz = derivative(zero, zero, 2.0 * hz / e1, zero, zero,
                           (bz - 2.0 * pz.square()) / bz.square(), 0, 0);
-  writePoseRows(rotationTerms(parameters[2]), px, py, pz, gx, gy, gz, n, jacobians[2],
-                jacobians[3]);
+  writePoseRows(rotationTerms(parameters[2]), px, py, pz, gx, gy, gz, n, *out);
 }
 
 void superquadricDistances(const double* shape, const double* rotation, const double* centre,

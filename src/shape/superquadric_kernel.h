@@ -19,6 +19,17 @@ struct RotationTerms {
 /// Exp(w) and J_r(w) terms of a rotation vector w[3].
 RotationTerms rotationTerms(const double* w_ptr);
 
+/// Where a kernel writes a chunk's Jacobian rows: the entry of the chunk's point i and of
+/// parameter k of block b (sizes 3, 2, 3, 3) at block[b][i * row_stride[b] + k *
+/// col_stride[b]]; null blocks are skipped. Ceres' row-major blocks: row_stride = size(b),
+/// col_stride = 1; one column-major matrix of height h: row_stride = 1, col_stride = h, each
+/// column a contiguous run. Plain data: this header is also compiled for wider SIMD.
+struct JacobianOut {
+  double* block[4] = {nullptr, nullptr, nullptr, nullptr};
+  Eigen::Index row_stride[4] = {3, 2, 3, 3};
+  Eigen::Index col_stride[4] = {1, 1, 1, 1};
+};
+
 /// Points per chunk of an evaluation (a multiple of the SIMD packet size).
 constexpr Eigen::Index kKernelChunk = 64;
 /// Per point terms of the residual that the Jacobian reuses, and the residual: the columns
@@ -47,10 +58,10 @@ enum KernelTerm {
 /// points (column-major), `terms`: rows x kTerms (column-major).
 void superquadricTerms(double const* const* parameters, const double* q, double* terms,
                        Eigen::Index rows, Eigen::Index begin, Eigen::Index n);
-/// Jacobian rows of points [begin, begin + n) from their terms; `jacobians` (Ceres' row-major
-/// blocks, null ones skipped) point at the chunk's first rows.
+/// Jacobian rows of points [begin, begin + n) from their terms; `out` starts at the chunk's
+/// first row.
 void superquadricJacobian(double const* const* parameters, const double* terms, Eigen::Index rows,
-                          Eigen::Index begin, Eigen::Index n, double** jacobians);
+                          Eigen::Index begin, Eigen::Index n, const JacobianOut& out);
 
 /// Keeps the first-order surface distance finite at the centre, where the gradient of log F
 /// vanishes.
@@ -58,11 +69,11 @@ constexpr double kTinyNorm2 = 1e-24;
 
 /// weight times the first-order surface distances of points [begin, begin + n) and their
 /// Jacobian rows, from eq. 3's terms at the same parameters (the same formulas as
-/// SuperquadricSurfaceResidual, equal up to rounding). `residuals` and `jacobians` (null
-/// ones skipped; null: residuals only) point at the chunk's first rows.
+/// SuperquadricSurfaceResidual, equal up to rounding). `residuals` and `out` (null: residuals
+/// only) start at the chunk's first row.
 void superquadricSurfaceResiduals(double const* const* parameters, const double* terms,
                                   Eigen::Index rows, Eigen::Index begin, Eigen::Index n,
-                                  double weight, double* residuals, double** jacobians);
+                                  double weight, double* residuals, const JacobianOut* out);
 
 /// Distances of points to a superquadric, vectorised (the same formulas as radialDistance()
 /// and surfaceDistance() in superquadric.cpp, equal to them up to rounding). `shape`: a1, a2,

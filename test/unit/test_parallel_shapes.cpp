@@ -182,6 +182,47 @@ TEST(SuperquadricCost, BatchSurfaceDistancesEqualTheScalarResidual) {
   }
 }
 
+// The solver's own layout: the same numbers as Ceres' row-major blocks, each parameter's
+// column in place in a taller matrix (rows below and above it untouched), with and without
+// the surface distances and when only the residuals are asked for.
+TEST(SuperquadricCost, ColumnMajorEvaluationEqualsCeresBlocks) {
+  std::mt19937 rng(13);
+  for (int trial = 0; trial < 9; ++trial) {
+    const CostCase c(rng, trial, 0.8);
+    for (double weight : {0.0, 1.3}) {
+      const SuperquadricBatchResidual batch(c.q, weight);
+      const Eigen::Index m = batch.num_residuals(), above = 5, height = m + above + 7;
+      const int sizes[4] = {3, 2, 3, 3}, starts[4] = {0, 3, 5, 8};
+      std::vector<double> r(static_cast<std::size_t>(m)), blocks[4];
+      double* jac[4];
+      for (int b = 0; b < 4; ++b) {
+        blocks[b].assign(static_cast<std::size_t>(m * sizes[b]), 0.0);
+        jac[b] = blocks[b].data();
+      }
+      ASSERT_TRUE(batch.Evaluate(c.params, r.data(), jac));
+      constexpr double kUntouched = -12345.0;
+      Eigen::MatrixXd columns = Eigen::MatrixXd::Constant(height, 11, kUntouched);
+      std::vector<double> r_columns(static_cast<std::size_t>(m)), r_only(r_columns);
+      ASSERT_TRUE(
+          batch.EvaluateColumnMajor(c.params, r_columns.data(), columns.data() + above, height));
+      ASSERT_TRUE(batch.EvaluateColumnMajor(c.params, r_only.data(), nullptr, height));
+      EXPECT_EQ(r_columns, r);
+      EXPECT_EQ(r_only, r);
+      for (int b = 0; b < 4; ++b) {
+        for (int k = 0; k < sizes[b]; ++k) {
+          for (Eigen::Index i = 0; i < m; ++i) {
+            ASSERT_EQ(columns(above + i, starts[b] + k),
+                      blocks[b][static_cast<std::size_t>(i * sizes[b] + k)])
+                << "trial " << trial << " weight " << weight << " row " << i;
+          }
+        }
+      }
+      EXPECT_TRUE((columns.topRows(above).array() == kUntouched).all());
+      EXPECT_TRUE((columns.bottomRows(height - above - m).array() == kUntouched).all());
+    }
+  }
+}
+
 TEST(ParallelFor, EveryItemOnceAndLowestExceptionRethrown) {
   for (int threads : {1, 2, 5}) {
     std::vector<int> hits(100, 0);

@@ -18,6 +18,9 @@
 #include "novelty_detection/shape/superquadric.h"
 
 namespace novelty_detection {
+namespace detail {
+struct JacobianOut;  // shape/superquadric_kernel.h
+}  // namespace detail
 
 /// Automatic differentiation (reference implementation; guarded powers are in
 /// fitResidualCanonical(), which works on Jets).
@@ -81,12 +84,21 @@ class SuperquadricBatchResidual : public ceres::CostFunction {
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
+  /// The same residuals, with the Jacobian written into the columns of a column-major matrix
+  /// of height `height`: the entry of residual i and parameter j (the blocks' 11 parameters
+  /// in order) at jacobian[j * height + i] (null: residuals only). The layout a dense solver
+  /// works on, written directly instead of copied from Ceres' row-major blocks.
+  bool EvaluateColumnMajor(double const* const* parameters, double* residuals, double* jacobian,
+                           Eigen::Index height) const;
 
   /// Points per chunk of an evaluation (a multiple of the SIMD packet size; the kernels'
   /// chunk, detail/superquadric_kernel.h).
   static constexpr Eigen::Index kChunk = 64;
 
  private:
+  bool evaluate(double const* const* parameters, double* residuals,
+                const detail::JacobianOut* out) const;
+
   Eigen::Matrix3Xd q_;
   double surface_weight_;
   // The terms at the last evaluated parameters (one residual block per problem, so Ceres
