@@ -224,12 +224,15 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
     // path until it decreases the cost enough (Armijo).
     double alpha = 1.0;
     FitVector candidate = project(step, alpha);
+    // Without the line search the slope is not used, and the Jacobian is only needed where
+    // its validity decides (below): half the steps of such fits are rejected.
     auto sample = [&](double at) {
       LineSample out;
       out.x = at;
-      if (at_candidate->run(candidate, true)) {
+      if (at_candidate->run(candidate, options.line_search)) {
         out.value = at_candidate->cost();
-        out.slope = (at_candidate->jacobian.transpose() * at_candidate->residuals).dot(step);
+        if (options.line_search)
+          out.slope = (at_candidate->jacobian.transpose() * at_candidate->residuals).dot(step);
         out.valid = true;
       }
       return out;
@@ -265,15 +268,24 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
       }
       at_current = current.valid;
     }
-    const double candidate_cost =
-        at_current ? current.value : std::numeric_limits<double>::infinity();
-    const bool evaluated = std::isfinite(candidate_cost);
+    double candidate_cost = at_current ? current.value : std::numeric_limits<double>::infinity();
+    bool evaluated = std::isfinite(candidate_cost);
     // Parameter tolerance, on the step taken (after its projection).
     const double x_norm = Eigen::Map<const Vec>(x.data()).norm();
     const double taken =
         (Eigen::Map<const Vec>(candidate.data()) - Eigen::Map<const Vec>(x.data())).norm();
     if (taken <= (x_norm + options.parameter_tolerance) * options.parameter_tolerance) break;
-    const double cost_change = x_cost - candidate_cost;
+    double cost_change = x_cost - candidate_cost;
+    // A candidate counts as evaluated only with a finite Jacobian too: computed now, without
+    // the line search, where that decides (a stop on the function tolerance or a step taken).
+    if (evaluated && !options.line_search &&
+        (std::abs(cost_change) <= options.function_tolerance * x_cost ||
+         cost_change / model_change > kMinRelativeDecrease) &&
+        !at_candidate->run(candidate, true)) {
+      candidate_cost = std::numeric_limits<double>::infinity();
+      evaluated = false;
+      cost_change = x_cost - candidate_cost;
+    }
     // Function tolerance, on any step (Ceres stops without taking it).
     if (evaluated && std::abs(cost_change) <= options.function_tolerance * x_cost) break;
     const double rho = cost_change / model_change;
