@@ -297,6 +297,18 @@ TEST_F(DetectorTest, BadSweepsAreRefusedAndTheNextGoodOneIsServed) {
       20.0));
 }
 
+TEST_F(DetectorTest, DiagnosticsArePublishedOncePerSecond) {
+  // The updater's period is 1 s: about five messages in 5 s of an idle node (two or three if
+  // it were asked only at its own period, when it finds the period not quite over every
+  // other time).
+  ASSERT_TRUE(waitFor([&] { return diagnosticsSeen() > 0; }, 10.0));
+  const std::size_t start = diagnosticsSeen();
+  waitFor([] { return false; }, 5.0);
+  const std::size_t seen = diagnosticsSeen() - start;
+  EXPECT_GE(seen, 4u);
+  EXPECT_LE(seen, 6u);
+}
+
 TEST_F(DetectorTest, ServicesRunBesideSweepsAndLostSweepsAreCounted) {
   captureRoom();
   ASSERT_TRUE(goodSweepIsServed());
