@@ -276,20 +276,21 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
         (Eigen::Map<const Vec>(candidate.data()) - Eigen::Map<const Vec>(x.data())).norm();
     if (taken <= (x_norm + options.parameter_tolerance) * options.parameter_tolerance) break;
     double cost_change = x_cost - candidate_cost;
+    // Function tolerance, on any step (Ceres stops without taking it); a step is taken when
+    // its quality rho exceeds the minimum relative decrease.
+    auto stops = [&] { return std::abs(cost_change) <= options.function_tolerance * x_cost; };
+    auto accepts = [&] { return cost_change / model_change > kMinRelativeDecrease; };
     // A candidate counts as evaluated only with a finite Jacobian too: computed now, without
-    // the line search, where that decides (a stop on the function tolerance or a step taken).
-    if (evaluated && !options.line_search &&
-        (std::abs(cost_change) <= options.function_tolerance * x_cost ||
-         cost_change / model_change > kMinRelativeDecrease) &&
+    // the line search, where that decides (a stop or a step taken).
+    if (evaluated && !options.line_search && (stops() || accepts()) &&
         !at_candidate->run(candidate, true)) {
       candidate_cost = std::numeric_limits<double>::infinity();
       evaluated = false;
       cost_change = x_cost - candidate_cost;
     }
-    // Function tolerance, on any step (Ceres stops without taking it).
-    if (evaluated && std::abs(cost_change) <= options.function_tolerance * x_cost) break;
+    if (evaluated && stops()) break;
     const double rho = cost_change / model_change;
-    if (evaluated && rho > kMinRelativeDecrease) {
+    if (evaluated && accepts()) {
       x = candidate;
       x_cost = candidate_cost;
       std::swap(at_x, at_candidate);

@@ -62,6 +62,11 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // free one's mean surface distance is lower by more than corner_gain of the ellipsoid's
   // (both mostly the sensor noise when they fit, so the bar scales with it).
   const bool round_check = params_.corner_gain > 0.0;
+  // The ellipsoid is kept unless the free fit is closer to the points by more than
+  // corner_gain of the ellipsoid's distance.
+  auto round_wins = [&](double round_distance, double free_distance) {
+    return round_distance * (1.0 - params_.corner_gain) <= free_distance;
+  };
   SuperquadricParams round = params_;
   round.epsilon_min = 1.0 - kRoundBand;
   round.epsilon_max = 1.0 + kRoundBand;
@@ -88,8 +93,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
-  if (round_check &&
-      ellipsoid.mean_distance * (1.0 - params_.corner_gain) <= meanSurfaceDistance(best.sq, sub))
+  if (round_check && round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub)))
     best = ellipsoid;
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
@@ -179,8 +183,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
         const FitResult ellipse = round_fitter.refine(
             few, round_start, std::min(params_.max_iterations, params_.split_iterations), false,
             FitMeasures::kNone);
-        if (meanSurfaceDistance(ellipse.sq, few) * (1.0 - params_.corner_gain) <=
-            meanSurfaceDistance(start, few)) {
+        if (round_wins(meanSurfaceDistance(ellipse.sq, few), meanSurfaceDistance(start, few))) {
           parts[k].fit = round_bounded.refine(data, ellipse.sq, -1, true, FitMeasures::kNone);
           return;
         }

@@ -14,6 +14,37 @@ namespace {
 using detail::RotationTerms;
 using detail::rotationTerms;
 
+/// Ceres' row-major blocks (null ones skipped), from their first row.
+detail::JacobianOut rowMajor(double* const* jacobians) {
+  detail::JacobianOut out;
+  for (int b = 0; b < 4; ++b) {
+    out.block[b] = jacobians[b];
+    out.row_stride[b] = detail::kBlockSizes[b];
+    out.col_stride[b] = 1;
+  }
+  return out;
+}
+
+/// The 11 parameters' columns of a column-major matrix of height `height`, from `first`
+/// (the entry of the first row and parameter).
+detail::JacobianOut columnMajor(double* first, Eigen::Index height) {
+  detail::JacobianOut out;
+  for (int b = 0; b < 4; ++b) {
+    out.block[b] = first + detail::kBlockStarts[b] * height;
+    out.row_stride[b] = 1;
+    out.col_stride[b] = height;
+  }
+  return out;
+}
+
+/// The same layout from `rows` rows further down.
+detail::JacobianOut advanced(const detail::JacobianOut& in, Eigen::Index rows) {
+  detail::JacobianOut out = in;
+  for (int b = 0; b < 4; ++b)
+    if (out.block[b]) out.block[b] += rows * out.row_stride[b];
+  return out;
+}
+
 /// log(e^a + e^b) and the softmax weights e^a / (e^a + e^b), e^b / (e^a + e^b), with one
 /// exp and one log.
 inline double logSumExpWeights(double a, double b, double* wa, double* wb) {
@@ -95,41 +126,6 @@ SuperquadricBatchResidual::SuperquadricBatchResidual(const std::vector<Eigen::Ve
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
 }
 
-namespace {
-
-/// Ceres' row-major blocks (null ones skipped), from their first row.
-detail::JacobianOut rowMajor(double* const* jacobians) {
-  detail::JacobianOut out;
-  for (int b = 0; b < 4; ++b) {
-    out.block[b] = jacobians[b];
-    out.row_stride[b] = detail::kBlockSizes[b];
-    out.col_stride[b] = 1;
-  }
-  return out;
-}
-
-/// The 11 parameters' columns of a column-major matrix of height `height`, from `first`
-/// (the entry of the first row and parameter).
-detail::JacobianOut columnMajor(double* first, Eigen::Index height) {
-  detail::JacobianOut out;
-  for (int b = 0; b < 4; ++b) {
-    out.block[b] = first + detail::kBlockStarts[b] * height;
-    out.row_stride[b] = 1;
-    out.col_stride[b] = height;
-  }
-  return out;
-}
-
-/// The same layout from `rows` rows further down.
-detail::JacobianOut advanced(const detail::JacobianOut& in, Eigen::Index rows) {
-  detail::JacobianOut out = in;
-  for (int b = 0; b < 4; ++b)
-    if (out.block[b]) out.block[b] += rows * out.row_stride[b];
-  return out;
-}
-
-}  // namespace
-
 bool SuperquadricBatchResidual::Evaluate(double const* const* parameters, double* residuals,
                                          double** jacobians) const {
   if (!jacobians) return evaluate(parameters, residuals, nullptr);
@@ -173,9 +169,10 @@ bool SuperquadricBatchResidual::evaluate(double const* const* parameters, double
       detail::superquadricJacobian(parameters, terms_.data(), n, begin, m, advanced(*out, begin));
     }
     if (surface_weight_ > 0.0) {
-      const detail::JacobianOut surface = out ? advanced(*out, n + begin) : detail::JacobianOut();
+      detail::JacobianOut rows;  // the surface residuals' rows follow eq. 3's n rows
+      if (out) rows = advanced(*out, n + begin);
       detail::superquadricSurfaceResiduals(parameters, terms_.data(), n, begin, m, surface_weight_,
-                                           residuals + n + begin, out ? &surface : nullptr);
+                                           residuals + n + begin, out ? &rows : nullptr);
     }
   }
   return true;

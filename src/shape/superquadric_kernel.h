@@ -26,8 +26,8 @@ RotationTerms rotationTerms(const double* w_ptr);
 /// column a contiguous run. Plain data: this header is also compiled for wider SIMD.
 struct JacobianOut {
   double* block[4] = {nullptr, nullptr, nullptr, nullptr};
-  Eigen::Index row_stride[4] = {3, 2, 3, 3};
-  Eigen::Index col_stride[4] = {1, 1, 1, 1};
+  Eigen::Index row_stride[4] = {};
+  Eigen::Index col_stride[4] = {};
 };
 
 /// Points per chunk of an evaluation (a multiple of the SIMD packet size).

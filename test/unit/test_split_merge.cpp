@@ -17,6 +17,14 @@ namespace {
 
 constexpr double kSigma = 0.003;
 
+/// Whether p lies inside part m != k of `parts` (inside-outside function below `level`).
+bool insideAnother(const std::vector<Superquadric>& parts, std::size_t k, const Eigen::Vector3d& p,
+                   double level) {
+  for (std::size_t m = 0; m < parts.size(); ++m)
+    if (m != k && insideOutside(parts[m], p) < level) return true;
+  return false;
+}
+
 /// Surface samples of a union of superquadrics: each part's samples that are not inside
 /// (or on) another part, with noise, after a rigid motion of the whole composite.
 Points3d compositeSamples(std::vector<Superquadric>& parts, int per_part, unsigned seed) {
@@ -26,13 +34,8 @@ Points3d compositeSamples(std::vector<Superquadric>& parts, int per_part, unsign
   const Eigen::Matrix3d r = pose.rotation();
   Points3d out;
   for (std::size_t k = 0; k < parts.size(); ++k) {
-    for (const auto& p : samples::noisySamples(parts[k], per_part, 0.0, seed + k)) {
-      bool hidden = false;
-      for (std::size_t m = 0; m < parts.size(); ++m) {
-        hidden = hidden || (m != k && insideOutside(parts[m], p) < 1.05);
-      }
-      if (!hidden) out.push_back(p);
-    }
+    for (const auto& p : samples::noisySamples(parts[k], per_part, 0.0, seed + k))
+      if (!insideAnother(parts, k, p, 1.05)) out.push_back(p);
   }
   std::normal_distribution<double> noise(0.0, kSigma);
   for (auto& p : out)
@@ -170,13 +173,8 @@ Points3d oneSidedComposite(const std::vector<Superquadric>& parts, const Eigen::
                            int per_part, double sigma_m, unsigned seed) {
   Points3d out;
   for (std::size_t k = 0; k < parts.size(); ++k) {
-    for (const auto& p : samples::noisySamples(parts[k], per_part, sigma_m, seed + k, &sensor)) {
-      bool hidden = false;
-      for (std::size_t m = 0; m < parts.size(); ++m) {
-        hidden = hidden || (m != k && insideOutside(parts[m], p) < 1.0);
-      }
-      if (!hidden) out.push_back(p);
-    }
+    for (const auto& p : samples::noisySamples(parts[k], per_part, sigma_m, seed + k, &sensor))
+      if (!insideAnother(parts, k, p, 1.0)) out.push_back(p);
   }
   return out;
 }
