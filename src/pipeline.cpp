@@ -374,6 +374,7 @@ FitBoundsSource boundsSource(Detection& d) {
   source.has_floor = ground.found;
   source.floor = ground.coefficients;
   source.floor_band_m = ground.threshold_m;
+  source.noise = &d.noise;
   return source;
 }
 

@@ -1,11 +1,14 @@
 #include "novelty_detection/shape/fit_bounds.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 
 #include "novelty_detection/point_grid.h"
+#include "novelty_detection/preprocess/range_noise.h"
 #include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/visibility/visibility.h"
 
@@ -49,6 +52,13 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   bounds.params = params;
   bounds.margin_m = source.margin_m;
   if (source.view && !source.view->empty()) bounds.view = source.view;
+  if (source.noise && source.noise->estimated && source.sweep) {
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const auto& p : segment) centroid += p;
+    centroid /= static_cast<double>(segment.size());
+    const Eigen::Vector3d origin = source.sweep->sensor_origin_.head<3>().cast<double>();
+    bounds.noise_m = source.noise->sigmaAt((centroid - origin).norm());
+  }
   if (source.has_floor && source.floor.head<3>().allFinite() &&
       std::abs(source.floor.head<3>().norm() - 1.0) < 1e-6) {
     bounds.has_floor = true;
@@ -216,6 +226,29 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
     }
   }
   return out;
+}
+
+bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq) {
+  if (points.size() < 3 || !sq) return false;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points) cov += (p - centroid) * (p - centroid).transpose();
+  cov /= static_cast<double>(points.size());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Vector3d var = es.eigenvalues().cwiseMax(0.0);  // ascending
+  const double across = std::sqrt(std::max(0.0, var(0) - noise_m * noise_m));
+  if (!(across <= kFlatRatio * std::sqrt(var(1)))) return false;
+  const Eigen::Vector3d normal = es.eigenvectors().col(0);
+  const Eigen::Matrix3d r = sq->rotation();
+  const int k = axisNearest(r, normal);
+  if (std::abs(r.col(k).dot(normal)) < std::cos(kThinAxisDeg * M_PI / 180.0)) return false;
+  const double half = std::max(std::sqrt(3.0) * across, min_half_m);
+  if (!(sq->a(k) > half)) return false;
+  sq->a(k) = half;
+  sq->position += (centroid - sq->position).dot(normal) * normal;
+  return true;
 }
 
 double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up) {

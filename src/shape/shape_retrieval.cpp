@@ -122,6 +122,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
           with_gaps.insert(with_gaps.end(), middles.begin(), middles.end());
         best = bounded.refine(with_gaps, best.sq, -1, true, FitMeasures::kNone);
       }
+      thinToFlatView(sub, bounds->noise_m, params_.min_size_m, &best.sq);
     }
     parts.front().fit = best;
   }

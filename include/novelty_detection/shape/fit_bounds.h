@@ -37,6 +37,7 @@
 namespace novelty_detection {
 
 class RangeImage;
+struct RangeNoise;
 
 struct FitBounds {
   /// Points the object does not contain (see the header comment).
@@ -53,6 +54,9 @@ struct FitBounds {
   /// The sweep seen from its own origin (mirroredHiddenSide(), gapMiddles()); null: unknown.
   const RangeImage* view = nullptr;
   double margin_m = 0.0;  ///< free means seen through by more than this
+  /// The sensor's range noise (standard deviation normal to a surface) at the segment's
+  /// range [m]; 0: unknown.
+  double noise_m = 0.0;
 
   bool empty() const { return outside.empty() && !has_floor; }
   /// Height of p above the floor [m].
@@ -90,6 +94,7 @@ struct FitBoundsSource {
   bool has_floor = false;
   Eigen::Vector4d floor = Eigen::Vector4d(0, 0, 1, 0);  ///< (up, offset), up a unit normal
   double floor_band_m = 0.0;
+  const RangeNoise* noise = nullptr;  ///< the sweep's noise model; null: unknown
 };
 
 /// Bounds of segment `segment_id` (its points `segment`) from `source` and the params'
@@ -125,6 +130,20 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds,
 /// sensor meets free space at once (its middle is on the surface) and a hidden side never
 /// (no middle). Empty without a view, a floor or an upright axis.
 Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
+
+/// A flat view: the object's depth across it was not observed. `points` are flat when their
+/// spread across their best plane, less the sensor noise `noise_m`, is at most kFlatRatio of
+/// their spread along the plane's shorter direction (standard deviations): a thin object (a
+/// door leaf, a board, a panel) or one face of a thicker one seen square on. A fit to them
+/// may take any depth behind that face (eq. 3's residual even falls as it grows, and the
+/// hidden space does not bound it): the thinnest object the points allow is kept. The axis of
+/// `sq` nearest the plane's normal (within kThinAxisDeg) is cut to the points' own half
+/// thickness (sqrt(3) of their noise-free standard deviation across the plane: a uniform
+/// slab; at least `min_half_m`) and its centre moved onto the plane. Returns whether `sq`
+/// was cut (never when it is already that thin or the points are not flat).
+bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq);
+constexpr double kFlatRatio = 0.1;
+constexpr double kThinAxisDeg = 25.0;
 
 /// How round the horizontal section of an upright `sq` is: 0 for a cornered section
 /// (exponent 0.1) to 1 for a round one (exponent 1 or more); 0 when no axis is along `up`.
