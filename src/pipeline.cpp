@@ -308,6 +308,9 @@ void completeNewObjects(Detection& d) {
   if (sensorOriginKnown(current.sensor_origin_) && sp.crease_offset_factor > 0 &&
       d.noise.estimated) {
     // Points within half a link radius of a crease end a piece: no link jumps the crease.
+    // Each test sums the points within crease_radius_factor link radii: whole subtrees of
+    // the index at once.
+    d.kept_index.prepareMoments();
     creases = std::make_unique<CreaseTest>(
         current, d.s.pre.kept, d.kept_index, current.sensor_origin_.head<3>(),
         sp.crease_radius_factor * d.link_radius, sp.crease_offset_factor,

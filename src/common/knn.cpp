@@ -253,7 +253,8 @@ double KnnTree::kthNearestDistance(const Eigen::Vector3f& p, int k) const {
                     : std::numeric_limits<double>::infinity();
 }
 
-void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const {
+template <bool kWhole, class Whole, class Point>
+void KnnTree::visitWithin(const Eigen::Vector3f& p, double radius, Whole whole, Point point) const {
   if (nodes_.empty() || !(radius > 0)) return;
   const float q[3] = {p.x(), p.y(), p.z()};
   const float r2 = static_cast<float>(radius * radius);
@@ -262,8 +263,14 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
+    const int id = stack[--top];
+    const Node& node = nodes_[id];
     if (!(boxDistance2(q, node.lo, node.hi) < r2)) continue;
+    // A box whose farthest corner is within the radius holds only points within it.
+    if (kWhole && boxFarDistance2(q, node.lo, node.hi) < r2) {
+      whole(id);
+      continue;
+    }
     if (node.left >= 0) {
       stack[top++] = node.right;
       stack[top++] = node.left;
@@ -271,9 +278,54 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
     }
     for (int i = node.begin; i < node.end; ++i) {
       const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      if (dx * dx + dy * dy + dz * dz < r2) out->push_back(id_[i]);
+      if (dx * dx + dy * dy + dz * dz < r2) point(i);
     }
   }
+}
+
+void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const {
+  visitWithin<false>(
+      p, radius, [](int) {}, [&](int i) { out->push_back(id_[i]); });
+}
+
+void KnnTree::Moments::add(double x, double y, double z) {
+  n += 1.0;
+  s[0] += x, s[1] += y, s[2] += z;
+  ss[0] += x * x, ss[1] += x * y, ss[2] += x * z, ss[3] += y * y, ss[4] += y * z, ss[5] += z * z;
+}
+
+void KnnTree::Moments::add(const Moments& m) {
+  n += m.n;
+  for (int a = 0; a < 3; ++a) s[a] += m.s[a];
+  for (int a = 0; a < 6; ++a) ss[a] += m.ss[a];
+}
+
+void KnnTree::buildMoments() {
+  moments_.assign(nodes_.size(), Moments());
+  // Preorder numbering: children come after their parent, so a reverse pass sees them first.
+  for (int id = static_cast<int>(nodes_.size()) - 1; id >= 0; --id) {
+    const Node& node = nodes_[id];
+    Moments& m = moments_[id];
+    if (node.left >= 0) {
+      m.add(moments_[node.left]);
+      m.add(moments_[node.right]);
+      continue;
+    }
+    for (int i = node.begin; i < node.end; ++i) m.add(x_[i], y_[i], z_[i]);
+  }
+}
+
+KnnTree::Moments KnnTree::momentsWithin(const Eigen::Vector3f& p, double radius) const {
+  Moments out;
+  const auto point = [&](int i) { out.add(x_[i], y_[i], z_[i]); };
+  if (moments_.size() == nodes_.size()) {
+    visitWithin<true>(
+        p, radius, [&](int node) { out.add(moments_[node]); }, point);
+  } else {
+    visitWithin<false>(
+        p, radius, [](int) {}, point);
+  }
+  return out;
 }
 
 bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {

@@ -24,6 +24,17 @@ inline float boxDistance2(const float* q, const float* lo, const float* hi) {
   return d2;
 }
 
+/// Squared float distance from q to the farthest corner of the box [lo, hi]: no point of the
+/// box lies farther (float rounding is monotonic).
+inline float boxFarDistance2(const float* q, const float* lo, const float* hi) {
+  float d2 = 0.f;
+  for (int a = 0; a < 3; ++a) {
+    const float t = std::max(q[a] - lo[a], hi[a] - q[a]);
+    d2 += t * t;
+  }
+  return d2;
+}
+
 class KnnTree {
  public:
   /// An empty tree.
@@ -74,6 +85,20 @@ class KnnTree {
 
   std::size_t size() const { return x_.size(); }
 
+  /// Sums over a set of points in double: their number, coordinate sums and the sums of the
+  /// products xx, xy, xz, yy, yz, zz.
+  struct Moments {
+    double n = 0.0, s[3] = {0.0, 0.0, 0.0}, ss[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    void add(double x, double y, double z);
+    void add(const Moments& m);
+  };
+  /// Each subtree's moments, kept for momentsWithin() (a tree without them sums point by point).
+  void buildMoments();
+  /// The moments of the points within() gives for (p, radius): the same points, a subtree
+  /// lying wholly inside the ball added at once (its farthest corner is within the radius, so
+  /// every point of it passes within()'s test).
+  Moments momentsWithin(const Eigen::Vector3f& p, double radius) const;
+
  private:
   struct Node {
     float lo[3], hi[3];  ///< bounding box
@@ -101,12 +126,18 @@ class KnnTree {
   /// The k nearest other points of tree position t, searched bottom-up from its leaf.
   void searchFromLeaf(int t, int k, float* d2, int* count) const;
   void search(int node, const float* q, int self, int k, float* d2, int* count) const;
+  /// The points closer than `radius` to p (float squared distance below radius^2), depth
+  /// first in tree order: point(tree position) for each, or with kWhole, whole(node) for a
+  /// subtree lying wholly inside the ball.
+  template <bool kWhole, class Whole, class Point>
+  void visitWithin(const Eigen::Vector3f& p, double radius, Whole whole, Point point) const;
 
   std::vector<float> x_, y_, z_;  ///< coordinates in tree order
   std::vector<int> id_;           ///< tree order -> input position
   std::vector<int> leaf_of_;      ///< tree position -> leaf node
   std::vector<int> position_of_;  ///< input position -> tree position
   std::vector<Node> nodes_;
+  std::vector<Moments> moments_;  ///< per node, when built
 };
 
 template <class Close>

@@ -59,6 +59,26 @@ void NearestNeighbourIndex::withinIds(const Eigen::Vector3f& p, double radius_m,
   impl_->tree.within(p, radius_m, out);
 }
 
+NearestNeighbourIndex::Neighbourhood NearestNeighbourIndex::neighbourhood(const Eigen::Vector3f& p,
+                                                                          double radius_m) const {
+  const detail::KnnTree::Moments m = impl_->tree.momentsWithin(p, radius_m);
+  Neighbourhood out;
+  out.count = static_cast<std::size_t>(m.n);
+  if (m.n <= 0.0) return out;
+  out.centroid = Eigen::Vector3d(m.s[0], m.s[1], m.s[2]) / m.n;
+  const Eigen::Vector3d& c = out.centroid;
+  Eigen::Matrix3d& cov = out.covariance;
+  cov(0, 0) = m.ss[0] / m.n - c.x() * c.x();
+  cov(0, 1) = cov(1, 0) = m.ss[1] / m.n - c.x() * c.y();
+  cov(0, 2) = cov(2, 0) = m.ss[2] / m.n - c.x() * c.z();
+  cov(1, 1) = m.ss[3] / m.n - c.y() * c.y();
+  cov(1, 2) = cov(2, 1) = m.ss[4] / m.n - c.y() * c.z();
+  cov(2, 2) = m.ss[5] / m.n - c.z() * c.z();
+  return out;
+}
+
+void NearestNeighbourIndex::prepareMoments() { impl_->tree.buildMoments(); }
+
 std::size_t NearestNeighbourIndex::size() const { return impl_->points.size(); }
 
 double NearestNeighbourIndex::kthDistance(const Eigen::Vector3f& p, int k) const {

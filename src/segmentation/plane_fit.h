@@ -16,21 +16,27 @@ struct Plane {
   Eigen::Vector3d sd = Eigen::Vector3d::Zero();       ///< principal standard deviations, ascending
 };
 
-/// The plane of cloud[indices] (not empty).
-inline Plane fitPlane(const Cloud& cloud, const Indices& indices) {
+/// The plane through `centroid` of points with covariance `cov`.
+inline Plane planeOf(const Eigen::Vector3d& centroid, const Eigen::Matrix3d& cov) {
   Plane p;
-  for (int i : indices) p.centroid += cloud[i].getVector3fMap().cast<double>();
-  p.centroid /= static_cast<double>(indices.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int i : indices) {
-    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - p.centroid;
-    cov += d * d.transpose();
-  }
-  cov /= static_cast<double>(indices.size());
+  p.centroid = centroid;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
   p.normal = es.eigenvectors().col(0);
   p.sd = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
   return p;
+}
+
+/// The plane of cloud[indices] (not empty).
+inline Plane fitPlane(const Cloud& cloud, const Indices& indices) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int i : indices) centroid += cloud[i].getVector3fMap().cast<double>();
+  centroid /= static_cast<double>(indices.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i : indices) {
+    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - centroid;
+    cov += d * d.transpose();
+  }
+  return planeOf(centroid, cov / static_cast<double>(indices.size()));
 }
 
 }  // namespace detail

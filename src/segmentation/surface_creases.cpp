@@ -27,12 +27,9 @@ bool CreaseTest::inCrease(int position) {
   state = 0;
   if (!(radius_ > 0) || !(factor_ > 0) || index_.size() != kept_.size()) return false;
   const Eigen::Vector3f p = cloud_[kept_[position]].getVector3fMap();
-  nn_.clear();
-  index_.withinIds(p, radius_, &nn_);
-  if (static_cast<int>(nn_.size()) < kMinCreaseNeighbours) return false;
-  members_.clear();
-  for (int id : nn_) members_.push_back(kept_[id]);  // index ids are positions in kept
-  const detail::Plane plane = detail::fitPlane(cloud_, members_);
+  const NearestNeighbourIndex::Neighbourhood around = index_.neighbourhood(p, radius_);
+  if (static_cast<int>(around.count) < kMinCreaseNeighbours) return false;
+  const detail::Plane plane = detail::planeOf(around.centroid, around.covariance);
   // Neighbours along a line (one scan line): the "plane" is undetermined.
   if (!(plane.sd(1) * plane.sd(1) > 0.05 * plane.sd(2) * plane.sd(2))) return false;
   Eigen::Vector3d n = plane.normal;

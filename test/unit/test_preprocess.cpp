@@ -241,6 +241,51 @@ TEST(KnnTree, PointQueriesMatchBruteForce) {
   EXPECT_TRUE(none.empty());
 }
 
+// The neighbourhood sums of the crease test: the points within() finds, counted exactly and
+// summed (whole subtrees at once after buildMoments) to the centroid and covariance a plane
+// fit over those points computes, with and without the subtree sums.
+TEST(KnnTree, NeighbourhoodMomentsAreThoseOfThePointsWithin) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 20000; ++k) pts.emplace_back(5.f + u(rng), -3.f + u(rng), 0.1f * u(rng));
+  for (int k = 0; k < 30; ++k) pts.push_back(pts[k]);
+  nd::Cloud cloud;
+  for (const auto& p : pts) cloud.push_back(nd::PointT(p.x(), p.y(), p.z()));
+  nd::NearestNeighbourIndex index;
+  index.build(cloud);
+  for (const bool prepared : {false, true}) {
+    if (prepared) index.prepareMoments();
+    int wholes = 0;
+    for (int q = 0; q < 200; ++q) {
+      const Eigen::Vector3f p = q % 2 ? pts[static_cast<std::size_t>(q) * 37]
+                                      : Eigen::Vector3f(5.f + u(rng), -3.f + u(rng), 0.f);
+      const double r = q % 3 == 0 ? 0.02 : (q % 3 == 1 ? 0.08 : 0.3);
+      std::vector<int> ids;
+      index.withinIds(p, r, &ids);
+      const auto n = index.neighbourhood(p, r);
+      ASSERT_EQ(n.count, ids.size()) << "query " << q;
+      if (ids.empty()) continue;
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (int id : ids) c += index.point(id).cast<double>();
+      c /= static_cast<double>(ids.size());
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (int id : ids) {
+        const Eigen::Vector3d d = index.point(id).cast<double>() - c;
+        cov += d * d.transpose();
+      }
+      cov /= static_cast<double>(ids.size());
+      EXPECT_LT((n.centroid - c).norm(), 1e-9) << "query " << q;
+      EXPECT_LT((n.covariance - cov).cwiseAbs().maxCoeff(), 1e-9) << "query " << q;
+      wholes += ids.size() > 100;
+    }
+    EXPECT_GT(wholes, 20);  // balls holding whole subtrees were among the queries
+  }
+  nd::NearestNeighbourIndex empty;
+  empty.prepareMoments();
+  EXPECT_EQ(empty.neighbourhood(Eigen::Vector3f::Zero(), 1.0).count, 0u);
+}
+
 // Sparse outliers (1 % of the points, uniform in the room, at least 0.2 m from every
 // surface) are removed (>= 95 %) while the surfaces keep > 99 % of their points, at low and
 // at the paper's high noise level, by Rusu's global statistic in a 9 m room. The

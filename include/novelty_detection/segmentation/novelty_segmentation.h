@@ -45,6 +45,17 @@ class NearestNeighbourIndex {
   /// Positions in the index (0 .. points - 1, in build order) of the indexed points within
   /// radius_m of p, appended to `out` (unordered).
   void withinIds(const Eigen::Vector3f& p, double radius_m, std::vector<int>* out) const;
+  /// The indexed points withinIds() gives for (p, radius_m), summarised: how many, their
+  /// centroid and their covariance (mean outer product about the centroid). Summed in
+  /// double; after prepareMoments() whole subtrees inside the ball count at once.
+  struct Neighbourhood {
+    std::size_t count = 0;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  };
+  Neighbourhood neighbourhood(const Eigen::Vector3f& p, double radius_m) const;
+  /// Keeps every subtree's sums for neighbourhood() (linear in the points, once).
+  void prepareMoments();
   /// The indexed point with position `id` in the index.
   Eigen::Vector3f point(int id) const;
   /// Number of indexed points.

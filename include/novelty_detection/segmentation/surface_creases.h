@@ -55,8 +55,7 @@ class CreaseTest {
   std::function<double(double)> sigma_at_;
   std::vector<signed char> state_;  ///< inCrease: -1 not tested, 0 no, 1 crease
   std::vector<signed char> near_;   ///< nearCrease: -1 not asked, 0 no, 1 yes
-  std::vector<int> nn_, near_nn_;   ///< neighbour ids (scratch of each test)
-  Indices members_;                 ///< their cloud indices (scratch)
+  std::vector<int> near_nn_;        ///< neighbour ids (scratch of nearCrease)
 };
 
 }  // namespace novelty_detection
