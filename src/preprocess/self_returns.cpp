@@ -102,15 +102,25 @@ void markMatches(const Points& a, const std::vector<int>& a_index, const detail:
       // (most of a sweep), whatever the robot's frame says.
       const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
       if (within(p, std::min(tol, novelty_distance))) continue;
-      const double ds = b.nearestDistance(a[i]);
-      // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
-      if (!(ds <= tol) && own.atLeast(a[i], k, [ds](float d2) {
-            return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
-          }))
+      if (within(p, novelty_distance)) {
+        // Then tol < novelty_distance (else the test above held), d_m > tol, and the second
+        // rule cannot hold (its bound is at least the novelty distance): the first holds
+        // when ds <= tol, all that is needed of ds.
+        if (b.anyWithin(a[i], tol)) (*mask)[a_index[i]] = 1;
         continue;
-      const bool plain = ds <= tol && !within(p, tol);
+      }
+      const double ds = b.nearestDistance(a[i]);
       const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
-      if (plain || sparse) (*mask)[a_index[i]] = 1;
+      if (!(ds <= tol)) {
+        // Only the second rule can hold; the map test first (it settles most points), then
+        // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
+        if (sparse && !own.atLeast(a[i], k, [ds](float d2) {
+              return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
+            }))
+          (*mask)[a_index[i]] = 1;
+        continue;
+      }
+      if (sparse || !within(p, tol)) (*mask)[a_index[i]] = 1;
     }
   });
 }
