@@ -124,7 +124,7 @@ bool markSelfReturns(Detection& d) {
       [&reference_points](const Eigen::Vector3f& p, double r) {
         return reference_points.within(p, r);
       },
-      current_within, d.params.compute.resolved());
+      current_within, d.params.compute.resolved(), &d.ref.self_returns);
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

@@ -158,6 +158,8 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     model->gmm = fitter.fit(s.reps);
   }
   model->points.build(reference, s.pre.finite, threads);
+  if (model->views.empty())
+    model->self_returns = SelfReturnReference(reference, params.preprocess, threads);
   if (params.alignment.enabled) model->planes.build(reference, params.alignment, s.pre.finite);
   const RangeImage::Config image_config = rangeImageConfig(params.visibility);
   if (!model->views.empty()) {

@@ -13,6 +13,7 @@
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/multiscale_tree.h"
 #include "novelty_detection/preprocess/preprocess.h"
+#include "novelty_detection/preprocess/self_returns.h"
 #include "novelty_detection/preprocess/up_direction.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/types.h"
@@ -21,22 +22,27 @@
 namespace novelty_detection {
 
 struct ReferenceModel {
+  ReferenceModel() = default;
+  // Stays where it was made (shared): self_returns points at `cloud`.
+  ReferenceModel(const ReferenceModel&) = delete;
+  ReferenceModel& operator=(const ReferenceModel&) = delete;
   /// The up direction (preprocess/up) and the rotation R_up (up to +z) that both clouds are
   /// turned by about the origin before any stage; identity when up is +z.
   UpEstimate up;
   Eigen::Matrix3d R_up = Eigen::Matrix3d::Identity();
   bool rotated = false;
-  Cloud given;                      ///< as given (kept only when rotated)
-  Cloud cloud;                      ///< in the up frame (as given when not rotated)
-  Eigen::AlignedBox3d extent;       ///< box of the usable points, input frame
-  std::size_t out_of_range = 0;     ///< points beyond kMaxCoordinateM, taken as missing
-  Gmm gmm;                          ///< Gamma
-  NearestNeighbourIndex points;     ///< every finite reference point (ground included)
-  NearestNeighbourIndex structure;  ///< the points of `kept`, in that order
-  ReferenceVisibility visibility;   ///< free / occupied / unknown seen from its viewpoints
-  ReferenceViews views;             ///< per-sweep origins (up frame) when given several
-  Indices kept;                     ///< points that may disappear (no ground, no outliers)
-  AlignmentReference planes;        ///< map planes for the fine alignment (when enabled)
+  Cloud given;                       ///< as given (kept only when rotated)
+  Cloud cloud;                       ///< in the up frame (as given when not rotated)
+  Eigen::AlignedBox3d extent;        ///< box of the usable points, input frame
+  std::size_t out_of_range = 0;      ///< points beyond kMaxCoordinateM, taken as missing
+  Gmm gmm;                           ///< Gamma
+  NearestNeighbourIndex points;      ///< every finite reference point (ground included)
+  NearestNeighbourIndex structure;   ///< the points of `kept`, in that order
+  ReferenceVisibility visibility;    ///< free / occupied / unknown seen from its viewpoints
+  ReferenceViews views;              ///< per-sweep origins (up frame) when given several
+  Indices kept;                      ///< points that may disappear (no ground, no outliers)
+  AlignmentReference planes;         ///< map planes for the fine alignment (when enabled)
+  SelfReturnReference self_returns;  ///< the map's side of the robot-return test (of `cloud`)
   /// Log-density under Gamma that all but a `map_likelihood_quantile` share of the map's own
   /// points reach: a current point above it is explained by the map's surfaces.
   /// +inf when the check is off (no point counts as explained).

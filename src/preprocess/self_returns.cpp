@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 
@@ -149,10 +151,74 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
   return std::abs(std::remainder(twist, 2.0 * M_PI));
 }
 
+/// The reference's side: what depends on the map and the parameters alone.
+struct SelfReturnReference::Impl {
+  double max_range, min_range;
+  std::string body_box;
+  Distinct rd;
+  std::vector<int> ri;             ///< reference index of each near point
+  std::vector<std::uint8_t> mask;  ///< min_range_m and body_box marks, per reference point
+  Points rn;                       ///< near points in the sensor's frame
+  detail::KnnTree tree;            ///< over rn
+  double tolerance = 0.0;          ///< twice the median nearest-neighbour spacing of rn
+
+  Impl(const Cloud& reference, const PreprocessParams& params, double max_range_m, int threads)
+      : max_range(max_range_m),
+        min_range(params.min_range_m),
+        body_box(params.body_box),
+        rd(reference) {
+    rn = nearInSensorFrame(reference, rd.unique, min_range, max_range, parseBodyBox(body_box), &ri,
+                           &mask);
+    if (rn.size() < 2) return;
+    tree = detail::KnnTree(rn, threads);
+    std::vector<double> spacing = tree.kthNeighbourDistances(1, threads);
+    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+    tolerance = 2.0 * spacing[spacing.size() / 2];
+  }
+  bool matches(const PreprocessParams& params, double max_range_m) const {
+    return max_range == max_range_m && min_range == params.min_range_m &&
+           body_box == params.body_box;
+  }
+};
+
+struct SelfReturnReference::State {
+  const Cloud* reference = nullptr;
+  PreprocessParams params;
+  int threads = 1;
+  std::once_flag once;
+  std::unique_ptr<Impl> impl;
+};
+
+SelfReturnReference::SelfReturnReference() = default;
+SelfReturnReference::~SelfReturnReference() = default;
+SelfReturnReference::SelfReturnReference(SelfReturnReference&&) noexcept = default;
+SelfReturnReference& SelfReturnReference::operator=(SelfReturnReference&&) noexcept = default;
+
+SelfReturnReference::SelfReturnReference(const Cloud& reference, const PreprocessParams& params,
+                                         int threads) {
+  if (!params.self_filter || !sensorOriginKnown(reference.sensor_origin_)) return;
+  state_ = std::make_unique<State>();
+  state_->reference = &reference;
+  state_->params = params;
+  state_->threads = threads;
+}
+
+const SelfReturnReference::Impl* SelfReturnReference::impl() const {
+  if (!state_) return nullptr;
+  // What a sweep that moved uses (max_range = self_max_range_m); one that did not makes its
+  // own, without near points.
+  std::call_once(state_->once, [this] {
+    state_->impl = std::make_unique<Impl>(*state_->reference, state_->params,
+                                          state_->params.self_max_range_m, state_->threads);
+  });
+  return state_->impl.get();
+}
+
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m,
                             const NearestWithin& reference_within,
-                            const NearestWithin& current_within, int threads) {
+                            const NearestWithin& current_within, int threads,
+                            const SelfReturnReference* prepared) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -171,22 +237,27 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       max_range * headingChange(reference.sensor_orientation_, current.sensor_orientation_);
   s.sought = moved >= novelty_distance_m && max_range > 0.0;
   if (!s.sought) max_range = 0.0;
-  const Distinct rd(reference), cd(current);
-  std::vector<int> ri, ci;
-  const Points rn = nearInSensorFrame(reference, rd.unique, params.min_range_m, max_range, body,
-                                      &ri, &s.reference);
+  std::unique_ptr<SelfReturnReference::Impl> own;
+  const SelfReturnReference::Impl* ref = prepared && s.sought ? prepared->impl() : nullptr;
+  if (!ref || !ref->matches(params, max_range) || ref->mask.size() != reference.size()) {
+    own = std::make_unique<SelfReturnReference::Impl>(reference, params, max_range, threads);
+    ref = own.get();
+  }
+  s.reference = ref->mask;
+  const Distinct cd(current);
+  std::vector<int> ci;
+  const Points& rn = ref->rn;
   const Points cn =
       nearInSensorFrame(current, cd.unique, params.min_range_m, max_range, body, &ci, &s.current);
   if (rn.size() >= 2 && cn.size() >= 2) {
-    // Tolerance: twice the median nearest-neighbour spacing of the reference's near points.
-    const detail::KnnTree rn_tree(rn, threads), cn_tree(cn, threads);
-    std::vector<double> spacing = rn_tree.kthNeighbourDistances(1, threads);
-    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
-    s.tolerance_m = 2.0 * spacing[spacing.size() / 2];
+    const detail::KnnTree& rn_tree = ref->tree;
+    const detail::KnnTree cn_tree(cn, threads);
+    s.tolerance_m = ref->tolerance;
     // Repeats of a position do not change a nearest distance: an index over every finite
     // reference point serves as well as one over the distinct ones.
     detail::KnnTree reference_map, current_map;
-    if (!reference_within) reference_map = detail::KnnTree(pointsAt(reference, rd.unique), threads);
+    if (!reference_within)
+      reference_map = detail::KnnTree(pointsAt(reference, ref->rd.unique), threads);
     if (!current_within) current_map = detail::KnnTree(pointsAt(current, cd.unique), threads);
     const auto to_reference = [&](const Eigen::Vector3f& p, double r) {
       return reference_within ? reference_within(p, r) : reference_map.anyWithin(p, r);
@@ -197,10 +268,10 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
     const double nd = std::max(0.0, novelty_distance_m);
     markMatches(cn, ci, cn_tree, rn_tree, s.tolerance_m, nd, current, to_reference, threads,
                 &s.current);
-    markMatches(rn, ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, threads,
+    markMatches(rn, ref->ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, threads,
                 &s.reference);
   }
-  rd.copyToRepeats(&s.reference);
+  ref->rd.copyToRepeats(&s.reference);
   cd.copyToRepeats(&s.current);
   for (auto m : s.current) s.current_count += m;
   for (auto m : s.reference) s.reference_count += m;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -222,6 +223,50 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   Cloud unknown = cur;
   unknown.sensor_origin_.setZero();
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
+}
+
+// The map's side made once (as a map's model keeps it) gives the marks a fresh test gives,
+// for every sweep that uses it, from several threads at once, and is left aside when the
+// parameters it was made with differ or the sweep did not move.
+TEST(SelfReturns, PreparedReferenceGivesTheSameMarks) {
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  std::vector<int> body_ref, body_cur;
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
+  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
+  PreprocessParams p;
+  p.min_range_m = 0.2;
+  const SelfReturnReference prepared(ref, p);
+  const SelfReturns fresh = findSelfReturns(ref, cur, p, 0.05);
+  ASSERT_TRUE(fresh.sought);
+  ASSERT_GT(fresh.current_count, 0u);
+  ASSERT_GT(fresh.reference_count, 0u);
+  SelfReturns both[2];
+  std::thread other([&] { both[1] = findSelfReturns(ref, cur, p, 0.05, {}, {}, 1, &prepared); });
+  both[0] = findSelfReturns(ref, cur, p, 0.05, {}, {}, 2, &prepared);
+  other.join();
+  for (const SelfReturns& s : both) {
+    EXPECT_EQ(s.current, fresh.current);
+    EXPECT_EQ(s.reference, fresh.reference);
+    EXPECT_EQ(s.tolerance_m, fresh.tolerance_m);
+  }
+  // Another range than the prepared side's: made afresh, as without it.
+  PreprocessParams wider = p;
+  wider.self_max_range_m = 3.0;
+  const SelfReturns w = findSelfReturns(ref, cur, wider, 0.05, {}, {}, 1, &prepared);
+  const SelfReturns w_fresh = findSelfReturns(ref, cur, wider, 0.05);
+  EXPECT_EQ(w.current, w_fresh.current);
+  EXPECT_EQ(w.reference, w_fresh.reference);
+  // A sweep from the same pose: nothing sought, the range and body marks only.
+  const SelfReturns still = findSelfReturns(ref, ref, p, 0.05, {}, {}, 1, &prepared);
+  EXPECT_FALSE(still.sought);
+  EXPECT_EQ(still.reference, findSelfReturns(ref, ref, p, 0.05).reference);
+  // Nothing to prepare without an origin or with the filter off.
+  Cloud unknown = ref;
+  unknown.sensor_origin_.setZero();
+  EXPECT_EQ(SelfReturnReference(unknown, p).impl(), nullptr);
+  PreprocessParams off = p;
+  off.self_filter = false;
+  EXPECT_EQ(SelfReturnReference(ref, off).impl(), nullptr);
 }
 
 // The map-frame distances may come from an index the caller keeps over every finite

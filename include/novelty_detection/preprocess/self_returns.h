@@ -28,6 +28,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -63,13 +64,39 @@ double headingChange(const Eigen::Quaternionf& from, const Eigen::Quaternionf& t
 /// map-frame point; false when the cloud has none.
 using NearestWithin = std::function<bool(const Eigen::Vector3f&, double radius)>;
 
+/// The reference's side of the test, which depends on the map and the parameters alone: its
+/// distinct points, its points within self_max_range_m of its sensor in the sensor's frame
+/// with their index, those marks that need no other sweep (min_range_m, body_box) and the
+/// tolerance. A map's model keeps it, so that the sweeps after the first that moved pay only
+/// for their own side: it is made on first use (by any thread, once), from `reference`,
+/// which must outlive it.
+class SelfReturnReference {
+ public:
+  SelfReturnReference();
+  /// Nothing is made unless the filter is on and the reference's origin is known.
+  SelfReturnReference(const Cloud& reference, const PreprocessParams& params, int threads = 1);
+  ~SelfReturnReference();
+  SelfReturnReference(SelfReturnReference&&) noexcept;
+  SelfReturnReference& operator=(SelfReturnReference&&) noexcept;
+
+  struct Impl;
+  /// The prepared side, made on the first call; null when nothing is to be made.
+  const Impl* impl() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 /// `reference_within` and `current_within` (optional): that test against the finite points of
 /// each cloud, when the caller keeps an index of them (a reference model, the current sweep's
 /// pre-processing); else one is built here. They are called from up to `threads` threads at
-/// once; the marks do not depend on the thread count.
+/// once; the marks do not depend on the thread count. `prepared` (optional): the reference's
+/// side made before from the same reference and parameters (the marks are the same).
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0,
                             const NearestWithin& reference_within = {},
-                            const NearestWithin& current_within = {}, int threads = 1);
+                            const NearestWithin& current_within = {}, int threads = 1,
+                            const SelfReturnReference* prepared = nullptr);
 
 }  // namespace novelty_detection
