@@ -158,10 +158,18 @@ void measureDistancesToMap(Detection& d) {
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
   std::vector<double> range;
   for (std::size_t i = 0; i < kept.size(); i += stride) {
-    const Eigen::Vector3f p = point3f(current[kept[i]]);
-    sample.push_back(d.ref.points.distance(p));
-    if (origin_known) range.push_back((p - origin).norm());
+    if (origin_known) range.push_back((point3f(current[kept[i]]) - origin).norm());
   }
+  // The distances to the map, in blocks on compute/threads (each block its own slots).
+  const int threads = d.params.compute.resolved();
+  constexpr int kBlock = 512;
+  sample.resize((kept.size() + stride - 1) / stride);
+  const int n_sample = static_cast<int>(sample.size());
+  detail::parallelFor((n_sample + kBlock - 1) / kBlock, threads, [&](int b) {
+    for (int k = b * kBlock; k < std::min(n_sample, (b + 1) * kBlock); ++k)
+      sample[k] =
+          d.ref.points.distance(point3f(current[kept[static_cast<std::size_t>(k) * stride]]));
+  });
   d.noise = estimateRangeNoise(d.s.tree, origin_known ? &origin : nullptr);
   const RangeNoise& noise = d.noise;
   double median_range = 0.0;
@@ -177,9 +185,15 @@ void measureDistancesToMap(Detection& d) {
   d.result.tau_m = d.tau;
   d.result.noise_sigma_m = noise_sigma;
   d.result.noise_model = noise.estimated ? noise.modelName() : std::string();
+  const int n_fine = static_cast<int>(d.s.fine.points.size());
+  std::vector<char> far(static_cast<std::size_t>(n_fine), 0);
+  detail::parallelFor((n_fine + kBlock - 1) / kBlock, threads, [&](int b) {
+    for (int c = b * kBlock; c < std::min(n_fine, (b + 1) * kBlock); ++c)
+      far[c] = d.ref.points.distance(d.s.fine.points[c]) > d.tau;
+  });
   std::vector<Eigen::Index> far_idx;
-  for (std::size_t c = 0; c < d.s.fine.points.size(); ++c)
-    if (d.ref.points.distance(d.s.fine.points[c]) > d.tau) far_idx.push_back(c);
+  for (int c = 0; c < n_fine; ++c)
+    if (far[c]) far_idx.push_back(c);
   d.far.points.resize(3, far_idx.size());
   d.far.weights.resize(far_idx.size());
   for (std::size_t k = 0; k < far_idx.size(); ++k) {
@@ -354,9 +368,14 @@ void labelSegments(Detection& d) {
 void markNewlyVisible(Detection& d) {
   if (!d.params.visibility.newly_visible) return;
   const ReferenceModel& ref = d.ref;
+  // Only whether a point lies farther than tau from the map matters: a search that stops at
+  // the first map point within tau stands for the distance.
+  const double tau = d.tau;
   d.result.newly_visible = newlyVisible(
-      *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * d.tau, d.tau,
-      [&ref](const Eigen::Vector3f& p) { return ref.points.distance(p); });
+      *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * tau, tau,
+      [&ref, tau](const Eigen::Vector3f& p) {
+        return ref.points.within(p, tau) ? 0.0 : std::numeric_limits<double>::infinity();
+      });
   d.timer.lap("newly_visible");
 }
 

@@ -338,6 +338,9 @@ TEST(Pipeline, ResultDoesNotDependOnThreadCount) {
     }
     EXPECT_EQ(results[0].labels, results[k].labels);
     EXPECT_EQ(results[0].superquadrics.size(), results[k].superquadrics.size());
+    // The distances to the map (tau from their sample) are measured in parallel blocks.
+    EXPECT_EQ(results[0].tau_m, results[k].tau_m);
+    EXPECT_EQ(results[0].newly_visible, results[k].newly_visible);
   }
   EXPECT_EQ(results[0].labels, results[1].labels);
   ASSERT_EQ(results[0].superquadrics.size(), results[1].superquadrics.size());
