@@ -85,7 +85,7 @@ Simplified simplify(const Params& params, const Cloud& cloud, Result* result, St
   }
   if (timer) timer->lap("preprocess");
   if (!s.pre.kept.empty()) {
-    s.tree.build(cloud, s.pre.kept);
+    s.tree.build(cloud, s.pre.kept, params.compute.resolved());
     // The scale the mixture is fitted at: the (n_max, sigma_max) cut, coarsened by size
     // alone when range noise makes sigma split nearly every cluster down to its leaves
     // (sigma of a noisy plane patch exceeds sigma_max). Each representative carries its

@@ -9,10 +9,13 @@
 // build is therefore one pass per tree level, O(N log N).
 #include "novelty_detection/preprocess/multiscale_tree.h"
 
+#include "common/parallel.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -60,7 +63,102 @@ double surfaceVariation(const Eigen::Vector3d& l) {
 
 }  // namespace
 
-void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
+namespace {
+
+/// A tree under construction: nodes with their moments (each relative to its origin) and
+/// their depth, in creation order.
+struct Growing {
+  std::vector<MultiScaleTree::Node> nodes;
+  std::vector<Moments> moments;
+  std::vector<Eigen::Vector3d> origins;
+  std::vector<int> depth;
+};
+
+/// Splits the nodes of `t` in creation order, from the first, up to `limit` of them (the
+/// children are appended: processing them in that order is a BFS). A node's points stay
+/// within its range of pts and order: trees over disjoint ranges can grow at once.
+void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
+          std::size_t limit = std::numeric_limits<std::size_t>::max()) {
+  using Node = MultiScaleTree::Node;
+  constexpr int kMaxLeafSize = MultiScaleTree::kMaxLeafSize;
+  for (std::size_t id = 0; id < t.nodes.size() && id < limit; ++id) {
+    const Stats st = statsOf(t.moments[id], t.origins[id]);
+    Node& node = t.nodes[id];
+    node.centroid = st.centroid.cast<float>();
+    node.covariance = st.covariance.cast<float>();
+    node.sigma = static_cast<float>(surfaceVariation(st.eigenvalues));
+    node.eigenvalues = st.eigenvalues.cast<float>();
+
+    const int size = node.size();
+    if (size <= kMaxLeafSize) continue;
+    // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
+    // check runs only when the spread is at rounding level of the t.moments.
+    const Moments& m = t.moments[id];
+    if (st.eigenvalues(2) <= 1e-10 * (m.ss.trace() / m.n) &&
+        std::all_of(pts.begin() + node.begin, pts.begin() + node.end,
+                    [&](const Eigen::Vector3d& p) { return p == pts[node.begin]; })) {
+      continue;
+    }
+
+    // Partition [begin, end) by the side of the split plane (Pauly et al. 2002, Sec. 3.1).
+    const Eigen::Vector3d c = st.centroid;
+    const Eigen::Vector3d axis = st.major_axis;
+    int lo = node.begin, hi = node.end - 1;
+    while (lo <= hi) {
+      if ((pts[lo] - c).dot(axis) < 0.0) {
+        ++lo;
+      } else {
+        std::swap(pts[lo], pts[hi]);
+        std::swap(order[lo], order[hi]);
+        --hi;
+      }
+    }
+    int mid = lo;
+    if (mid == node.begin || mid == node.end) {
+      // Rounding left one side empty (near-duplicates far from the origin): split at the
+      // median projection instead, which always makes progress.
+      mid = node.begin + size / 2;
+      std::vector<std::pair<double, int>> proj(size);
+      for (int k = 0; k < size; ++k) {
+        proj[k] = {pts[node.begin + k].dot(axis), k};
+      }
+      std::nth_element(proj.begin(), proj.begin() + size / 2, proj.end());
+      std::vector<Eigen::Vector3d> p2(size);
+      Indices o2(size);
+      for (int k = 0; k < size; ++k) {
+        p2[k] = pts[node.begin + proj[k].second];
+        o2[k] = order[node.begin + proj[k].second];
+      }
+      std::copy(p2.begin(), p2.end(), pts.begin() + node.begin);
+      std::copy(o2.begin(), o2.end(), order.begin() + node.begin);
+    }
+    Moments ml, mr;
+    for (int k = node.begin; k < mid; ++k) ml.add(pts[k] - c);
+    for (int k = mid; k < node.end; ++k) mr.add(pts[k] - c);
+
+    Node left, right;
+    left.begin = node.begin;
+    left.end = mid;
+    right.begin = mid;
+    right.end = node.end;
+    left.parent = right.parent = static_cast<int>(id);
+    const int left_id = static_cast<int>(t.nodes.size());
+    t.nodes[id].left = left_id;  // `node` may dangle after the push_backs below
+    t.nodes[id].right = left_id + 1;
+    t.nodes.push_back(left);
+    t.nodes.push_back(right);
+    t.depth.push_back(t.depth[id] + 1);
+    t.depth.push_back(t.depth[id] + 1);
+    t.moments.push_back(ml);
+    t.moments.push_back(mr);
+    t.origins.push_back(c);
+    t.origins.push_back(c);
+  }
+}
+
+}  // namespace
+
+void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threads) {
   nodes_.clear();
   order_.clear();
   cloud_size_ = cloud.size();
@@ -118,78 +216,56 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices) {
     origins.push_back(o);
   }
 
-  // Nodes are appended in creation order; processing them in that order is a BFS.
-  for (std::size_t id = 0; id < nodes_.size(); ++id) {
-    const Stats st = statsOf(moments[id], origins[id]);
-    Node& node = nodes_[id];
-    node.centroid = st.centroid.cast<float>();
-    node.covariance = st.covariance.cast<float>();
-    node.sigma = static_cast<float>(surfaceVariation(st.eigenvalues));
-    node.eigenvalues = st.eigenvalues.cast<float>();
-
-    const int size = node.size();
-    if (size <= kMaxLeafSize) continue;
-    // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
-    // check runs only when the spread is at rounding level of the moments.
-    const Moments& m = moments[id];
-    if (st.eigenvalues(2) <= 1e-10 * (m.ss.trace() / m.n) &&
-        std::all_of(pts.begin() + node.begin, pts.begin() + node.end,
-                    [&](const Eigen::Vector3d& p) { return p == pts[node.begin]; })) {
-      continue;
-    }
-
-    // Partition [begin, end) by the side of the split plane (Pauly et al. 2002, Sec. 3.1).
-    const Eigen::Vector3d c = st.centroid;
-    const Eigen::Vector3d axis = st.major_axis;
-    int lo = node.begin, hi = node.end - 1;
-    while (lo <= hi) {
-      if ((pts[lo] - c).dot(axis) < 0.0) {
-        ++lo;
-      } else {
-        std::swap(pts[lo], pts[hi]);
-        std::swap(order_[lo], order_[hi]);
-        --hi;
+  Growing whole;
+  whole.nodes.swap(nodes_);
+  whole.moments.swap(moments);
+  whole.origins.swap(origins);
+  whole.depth.assign(1, 0);
+  constexpr int kParallelBuild = 20000;  // below this, a second thread costs more
+  if (threads > 1 && n >= kParallelBuild) {
+    // The root's split here, its two subtrees on two threads, then numbered as the serial
+    // BFS numbers them: level by level, the left subtree's nodes of a level before the right's.
+    grow(whole, pts, order_, 1);
+    if (whole.nodes.size() == 3) {
+      Growing part[2];
+      for (int k = 0; k < 2; ++k) {
+        part[k].nodes.push_back(whole.nodes[1 + k]);
+        part[k].nodes.back().parent = -1;
+        part[k].moments.push_back(whole.moments[1 + k]);
+        part[k].origins.push_back(whole.origins[1 + k]);
+        part[k].depth.assign(1, 0);
       }
-    }
-    int mid = lo;
-    if (mid == node.begin || mid == node.end) {
-      // Rounding left one side empty (near-duplicates far from the origin): split at the
-      // median projection instead, which always makes progress.
-      mid = node.begin + size / 2;
-      std::vector<std::pair<double, int>> proj(size);
-      for (int k = 0; k < size; ++k) {
-        proj[k] = {pts[node.begin + k].dot(axis), k};
+      detail::parallelFor(2, threads, [&](int k) { grow(part[k], pts, order_); });
+      whole.nodes.resize(1);
+      std::vector<int> global[2];
+      for (int k = 0; k < 2; ++k) global[k].assign(part[k].nodes.size(), -1);
+      std::size_t next[2] = {0, 0};
+      for (int level = 0; next[0] < part[0].nodes.size() || next[1] < part[1].nodes.size();
+           ++level) {
+        for (int k = 0; k < 2; ++k) {
+          for (; next[k] < part[k].nodes.size() && part[k].depth[next[k]] == level; ++next[k]) {
+            global[k][next[k]] = static_cast<int>(whole.nodes.size());
+            whole.nodes.push_back(part[k].nodes[next[k]]);
+          }
+        }
       }
-      std::nth_element(proj.begin(), proj.begin() + size / 2, proj.end());
-      std::vector<Eigen::Vector3d> p2(size);
-      Indices o2(size);
-      for (int k = 0; k < size; ++k) {
-        p2[k] = pts[node.begin + proj[k].second];
-        o2[k] = order_[node.begin + proj[k].second];
+      for (int k = 0; k < 2; ++k) {
+        for (std::size_t j = 0; j < part[k].nodes.size(); ++j) {
+          Node& node = whole.nodes[static_cast<std::size_t>(global[k][j])];
+          node.parent = node.parent < 0 ? 0 : global[k][static_cast<std::size_t>(node.parent)];
+          if (node.left >= 0) {
+            node.left = global[k][static_cast<std::size_t>(node.left)];
+            node.right = global[k][static_cast<std::size_t>(node.right)];
+          }
+        }
       }
-      std::copy(p2.begin(), p2.end(), pts.begin() + node.begin);
-      std::copy(o2.begin(), o2.end(), order_.begin() + node.begin);
+      whole.nodes[0].left = global[0][0];
+      whole.nodes[0].right = global[1][0];
     }
-    Moments ml, mr;
-    for (int k = node.begin; k < mid; ++k) ml.add(pts[k] - c);
-    for (int k = mid; k < node.end; ++k) mr.add(pts[k] - c);
-
-    Node left, right;
-    left.begin = node.begin;
-    left.end = mid;
-    right.begin = mid;
-    right.end = node.end;
-    left.parent = right.parent = static_cast<int>(id);
-    const int left_id = static_cast<int>(nodes_.size());
-    nodes_[id].left = left_id;  // `node` may dangle after the push_backs below
-    nodes_[id].right = left_id + 1;
-    nodes_.push_back(left);
-    nodes_.push_back(right);
-    moments.push_back(ml);
-    moments.push_back(mr);
-    origins.push_back(c);
-    origins.push_back(c);
+  } else {
+    grow(whole, pts, order_);
   }
+  nodes_.swap(whole.nodes);
 
   // Noise: on a plane, n * l0 / noise_var is chi-square with n - 3 degrees of freedom (the
   // residuals about the fitted plane), whose median is ~ nu (1 - 2 / (9 nu))^3; dividing

@@ -329,3 +329,31 @@ TEST(MultiScaleTree, NoiseEstimateAndNoiseAwareCut) {
   EXPECT_EQ(tree.cut(p).nodes, tree.cut(p.n_max, p.sigma_max).nodes);
   EXPECT_THROW(tree.cut(8, 0.01, -1.0), std::invalid_argument);
 }
+
+// On two threads the root's two subtrees grow at once and are numbered as the serial build
+// numbers them: the same nodes (ranges, links, statistics), the same order, the same cuts.
+TEST(MultiScaleTree, TwoThreadsBuildTheSameTree) {
+  nd::Cloud cloud = corner(12000, 21);
+  for (const auto& p : plane(8000, 22, Eigen::Vector3f(2.f, 0.f, 0.5f))) cloud.push_back(p);
+  cloud.push_back(nd::PointT(std::nanf(""), 0.f, 0.f));
+  for (int k = 0; k < 20; ++k) cloud.push_back(cloud[static_cast<std::size_t>(k)]);  // repeats
+  Tree serial, parallel;
+  serial.build(cloud, {}, 1);
+  parallel.build(cloud, {}, 2);
+  ASSERT_GT(serial.nodes().size(), 1000u);
+  ASSERT_EQ(serial.nodes().size(), parallel.nodes().size());
+  EXPECT_EQ(serial.order(), parallel.order());
+  for (std::size_t k = 0; k < serial.nodes().size(); ++k) {
+    const Tree::Node &a = serial.nodes()[k], &b = parallel.nodes()[k];
+    ASSERT_EQ(a.begin, b.begin) << "node " << k;
+    ASSERT_EQ(a.end, b.end) << "node " << k;
+    ASSERT_EQ(a.left, b.left) << "node " << k;
+    ASSERT_EQ(a.right, b.right) << "node " << k;
+    ASSERT_EQ(a.parent, b.parent) << "node " << k;
+    ASSERT_EQ(a.centroid, b.centroid) << "node " << k;
+    ASSERT_EQ(a.covariance, b.covariance) << "node " << k;
+    ASSERT_EQ(a.sigma, b.sigma) << "node " << k;
+  }
+  EXPECT_EQ(serial.noiseVariance(), parallel.noiseVariance());
+  EXPECT_EQ(serial.cut(64, 0.05).nodes, parallel.cut(64, 0.05).nodes);
+}
