@@ -43,7 +43,7 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
       if (r(k, col) > best) best = r(k, col), best_k = k;
     }
     if (mass <= threshold) continue;
-    if (reference.points->distance(current[todo[i]].getVector3fMap()) <= tau) continue;
+    if (reference.points->within(current[todo[i]].getVector3fMap(), tau)) continue;
     far_points.push_back(todo[i]);
     far_owner.push_back(best_k);
   }
