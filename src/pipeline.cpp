@@ -526,7 +526,7 @@ Result Pipeline::detect(const Cloud& given) const {
     if (!usablePoint(input[i])) continue;
     ++usable;
     const Eigen::Vector3f p = point3f(input[i]);
-    near += ref.points.distance(ref.rotated ? Eigen::Vector3f(R_up * p) : p) <= near_m;
+    near += ref.points.within(ref.rotated ? Eigen::Vector3f(R_up * p) : p, near_m);
   }
   const double overlap = usable ? static_cast<double>(near) / usable : 1.0;
   requireOverlap(input, ref.extent, overlap);
