@@ -197,46 +197,60 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
   std::vector<Eigen::Vector3d> pts(n);
   for (int k = 0; k < n; ++k) pts[k] = cloud[order_[k]].getVector3fMap().cast<double>();
 
-  // A binary tree with leaves of >= 1 point has at most 2n - 1 nodes.
-  nodes_.reserve(static_cast<std::size_t>(2 * n / std::max(1, kMaxLeafSize / 2) + 1));
-  std::vector<Moments> moments;  // per node, relative to origins[node]
-  std::vector<Eigen::Vector3d> origins;
-  moments.reserve(nodes_.capacity());
-  origins.reserve(nodes_.capacity());
-
+  // A binary tree with leaves of >= 1 point has at most 2n - 1 nodes; one of leaves of up
+  // to kMaxLeafSize points far fewer.
+  const auto capacity = [](int points) {
+    return static_cast<std::size_t>(2 * points / std::max(1, kMaxLeafSize / 2) + 1);
+  };
+  constexpr int kParallelBuild = 20000;  // below this, a second thread costs more
+  const bool parallel = threads > 1 && n >= kParallelBuild;
+  Growing whole;
   {
+    // The parallel build keeps only the root and its children here; each subtree holds its
+    // own nodes while it grows.
+    const std::size_t reserve = parallel ? 3 : capacity(n);
+    whole.nodes.reserve(reserve);
+    whole.moments.reserve(reserve);
+    whole.origins.reserve(reserve);
+    whole.depth.reserve(reserve);
     Node root;
     root.begin = 0;
     root.end = n;
     Moments m;
     const Eigen::Vector3d o = pts[0];  // any point of the cloud keeps sums well scaled
     for (const auto& p : pts) m.add(p - o);
-    nodes_.push_back(root);
-    moments.push_back(m);
-    origins.push_back(o);
+    whole.nodes.push_back(root);
+    whole.moments.push_back(m);
+    whole.origins.push_back(o);
+    whole.depth.push_back(0);
   }
-
-  Growing whole;
-  whole.nodes.swap(nodes_);
-  whole.moments.swap(moments);
-  whole.origins.swap(origins);
-  whole.depth.assign(1, 0);
-  constexpr int kParallelBuild = 20000;  // below this, a second thread costs more
-  if (threads > 1 && n >= kParallelBuild) {
+  if (parallel) {
     // The root's split here, its two subtrees on two threads, then numbered as the serial
     // BFS numbers them: level by level, the left subtree's nodes of a level before the right's.
     grow(whole, pts, order_, 1);
     if (whole.nodes.size() == 3) {
       Growing part[2];
       for (int k = 0; k < 2; ++k) {
+        const std::size_t reserve = capacity(whole.nodes[1 + k].size());
+        part[k].nodes.reserve(reserve);
+        part[k].moments.reserve(reserve);
+        part[k].origins.reserve(reserve);
+        part[k].depth.reserve(reserve);
         part[k].nodes.push_back(whole.nodes[1 + k]);
         part[k].nodes.back().parent = -1;
         part[k].moments.push_back(whole.moments[1 + k]);
         part[k].origins.push_back(whole.origins[1 + k]);
         part[k].depth.assign(1, 0);
       }
-      detail::parallelFor(2, threads, [&](int k) { grow(part[k], pts, order_); });
+      detail::parallelFor(2, threads, [&](int k) {
+        grow(part[k], pts, order_);
+        // The moments served the splits only: freed before the nodes are copied.
+        std::vector<Moments>().swap(part[k].moments);
+        std::vector<Eigen::Vector3d>().swap(part[k].origins);
+      });
       whole.nodes.resize(1);
+      whole.nodes.shrink_to_fit();
+      whole.nodes.reserve(1 + part[0].nodes.size() + part[1].nodes.size());
       std::vector<int> global[2];
       for (int k = 0; k < 2; ++k) global[k].assign(part[k].nodes.size(), -1);
       std::size_t next[2] = {0, 0};
