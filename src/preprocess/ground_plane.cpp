@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/parallel.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/preprocess/preprocess.h"
 
 namespace novelty_detection {
@@ -157,11 +158,7 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(indices.size());
   for (int i : indices) {
-    if (i < 0 || i >= static_cast<int>(cloud.size())) {
-      throw std::invalid_argument("findGroundPlane: index " + std::to_string(i) +
-                                  " outside a cloud of " + std::to_string(cloud.size()) +
-                                  " points");
-    }
+    requireIndexInCloud(cloud, i, "findGroundPlane");
     const Eigen::Vector3d p = cloud[i].getVector3fMap().cast<double>();
     if (!p.allFinite()) {
       throw std::invalid_argument("findGroundPlane: point " + std::to_string(i) + " is not finite");

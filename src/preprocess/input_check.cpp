@@ -100,4 +100,11 @@ void requireOverlap(const Cloud& sweep, const Eigen::AlignedBox3d& reference_ext
   }
 }
 
+void requireIndexInCloud(const Cloud& cloud, int index, const char* who) {
+  if (index < 0 || index >= static_cast<int>(cloud.size())) {
+    throw std::invalid_argument(std::string(who) + ": index " + std::to_string(index) +
+                                " outside a cloud of " + std::to_string(cloud.size()) + " points");
+  }
+}
+
 }  // namespace novelty_detection

@@ -10,6 +10,7 @@
 #include "novelty_detection/preprocess/multiscale_tree.h"
 
 #include "common/parallel.h"
+#include "novelty_detection/preprocess/input_check.h"
 
 #include <Eigen/Eigenvalues>
 
@@ -72,6 +73,21 @@ struct Growing {
   std::vector<Moments> moments;
   std::vector<Eigen::Vector3d> origins;
   std::vector<int> depth;
+
+  void reserve(std::size_t n) {
+    nodes.reserve(n);
+    moments.reserve(n);
+    origins.reserve(n);
+    depth.reserve(n);
+  }
+  /// Starts the tree at `root` (its parent unset: the root here).
+  void addRoot(MultiScaleTree::Node root, const Moments& m, const Eigen::Vector3d& origin) {
+    root.parent = -1;
+    nodes.push_back(root);
+    moments.push_back(m);
+    origins.push_back(origin);
+    depth.push_back(0);
+  }
 };
 
 /// Splits the nodes of `t` in creation order, from the first, up to `limit` of them (the
@@ -92,7 +108,7 @@ void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
     const int size = node.size();
     if (size <= kMaxLeafSize) continue;
     // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
-    // check runs only when the spread is at rounding level of the t.moments.
+    // check runs only when the spread is at rounding level of the moments.
     const Moments& m = t.moments[id];
     if (st.eigenvalues(2) <= 1e-10 * (m.ss.trace() / m.n) &&
         std::all_of(pts.begin() + node.begin, pts.begin() + node.end,
@@ -156,6 +172,39 @@ void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
   }
 }
 
+/// The root and its two subtrees grown apart (`part`, rooted at its children), numbered as
+/// one BFS from the root numbers them: level by level, the left subtree's nodes of a level
+/// before the right's (each subtree's own BFS keeps its levels in order).
+std::vector<MultiScaleTree::Node> mergeSubtrees(const MultiScaleTree::Node& root,
+                                                const Growing (&part)[2]) {
+  std::vector<MultiScaleTree::Node> nodes{root};
+  nodes.reserve(1 + part[0].nodes.size() + part[1].nodes.size());
+  std::vector<int> global[2];
+  for (int k = 0; k < 2; ++k) global[k].assign(part[k].nodes.size(), -1);
+  std::size_t next[2] = {0, 0};
+  for (int level = 0; next[0] < part[0].nodes.size() || next[1] < part[1].nodes.size(); ++level) {
+    for (int k = 0; k < 2; ++k) {
+      for (; next[k] < part[k].nodes.size() && part[k].depth[next[k]] == level; ++next[k]) {
+        global[k][next[k]] = static_cast<int>(nodes.size());
+        nodes.push_back(part[k].nodes[next[k]]);
+      }
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    for (std::size_t j = 0; j < part[k].nodes.size(); ++j) {
+      MultiScaleTree::Node& node = nodes[static_cast<std::size_t>(global[k][j])];
+      node.parent = node.parent < 0 ? 0 : global[k][static_cast<std::size_t>(node.parent)];
+      if (node.left >= 0) {
+        node.left = global[k][static_cast<std::size_t>(node.left)];
+        node.right = global[k][static_cast<std::size_t>(node.right)];
+      }
+    }
+  }
+  nodes[0].left = global[0][0];
+  nodes[0].right = global[1][0];
+  return nodes;
+}
+
 }  // namespace
 
 void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threads) {
@@ -177,11 +226,7 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
     std::vector<char> seen(cloud.size(), 0);
     order_.reserve(indices.size());
     for (int i : indices) {
-      if (i < 0 || i >= static_cast<int>(cloud.size())) {
-        throw std::invalid_argument("MultiScaleTree::build: index " + std::to_string(i) +
-                                    " outside a cloud of " + std::to_string(cloud.size()) +
-                                    " points");
-      }
+      requireIndexInCloud(cloud, i, "MultiScaleTree::build");
       if (seen[i]) {
         throw std::invalid_argument("MultiScaleTree::build: index " + std::to_string(i) +
                                     " given twice");
@@ -208,21 +253,14 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
   {
     // The parallel build keeps only the root and its children here; each subtree holds its
     // own nodes while it grows.
-    const std::size_t reserve = parallel ? 3 : capacity(n);
-    whole.nodes.reserve(reserve);
-    whole.moments.reserve(reserve);
-    whole.origins.reserve(reserve);
-    whole.depth.reserve(reserve);
+    whole.reserve(parallel ? 3 : capacity(n));
     Node root;
     root.begin = 0;
     root.end = n;
     Moments m;
     const Eigen::Vector3d o = pts[0];  // any point of the cloud keeps sums well scaled
     for (const auto& p : pts) m.add(p - o);
-    whole.nodes.push_back(root);
-    whole.moments.push_back(m);
-    whole.origins.push_back(o);
-    whole.depth.push_back(0);
+    whole.addRoot(root, m, o);
   }
   if (parallel) {
     // The root's split here, its two subtrees on two threads, then numbered as the serial
@@ -231,16 +269,8 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
     if (whole.nodes.size() == 3) {
       Growing part[2];
       for (int k = 0; k < 2; ++k) {
-        const std::size_t reserve = capacity(whole.nodes[1 + k].size());
-        part[k].nodes.reserve(reserve);
-        part[k].moments.reserve(reserve);
-        part[k].origins.reserve(reserve);
-        part[k].depth.reserve(reserve);
-        part[k].nodes.push_back(whole.nodes[1 + k]);
-        part[k].nodes.back().parent = -1;
-        part[k].moments.push_back(whole.moments[1 + k]);
-        part[k].origins.push_back(whole.origins[1 + k]);
-        part[k].depth.assign(1, 0);
+        part[k].reserve(capacity(whole.nodes[1 + k].size()));
+        part[k].addRoot(whole.nodes[1 + k], whole.moments[1 + k], whole.origins[1 + k]);
       }
       detail::parallelFor(2, threads, [&](int k) {
         grow(part[k], pts, order_);
@@ -248,33 +278,7 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
         std::vector<Moments>().swap(part[k].moments);
         std::vector<Eigen::Vector3d>().swap(part[k].origins);
       });
-      whole.nodes.resize(1);
-      whole.nodes.shrink_to_fit();
-      whole.nodes.reserve(1 + part[0].nodes.size() + part[1].nodes.size());
-      std::vector<int> global[2];
-      for (int k = 0; k < 2; ++k) global[k].assign(part[k].nodes.size(), -1);
-      std::size_t next[2] = {0, 0};
-      for (int level = 0; next[0] < part[0].nodes.size() || next[1] < part[1].nodes.size();
-           ++level) {
-        for (int k = 0; k < 2; ++k) {
-          for (; next[k] < part[k].nodes.size() && part[k].depth[next[k]] == level; ++next[k]) {
-            global[k][next[k]] = static_cast<int>(whole.nodes.size());
-            whole.nodes.push_back(part[k].nodes[next[k]]);
-          }
-        }
-      }
-      for (int k = 0; k < 2; ++k) {
-        for (std::size_t j = 0; j < part[k].nodes.size(); ++j) {
-          Node& node = whole.nodes[static_cast<std::size_t>(global[k][j])];
-          node.parent = node.parent < 0 ? 0 : global[k][static_cast<std::size_t>(node.parent)];
-          if (node.left >= 0) {
-            node.left = global[k][static_cast<std::size_t>(node.left)];
-            node.right = global[k][static_cast<std::size_t>(node.right)];
-          }
-        }
-      }
-      whole.nodes[0].left = global[0][0];
-      whole.nodes[0].right = global[1][0];
+      whole.nodes = mergeSubtrees(whole.nodes[0], part);
     }
   } else {
     grow(whole, pts, order_);

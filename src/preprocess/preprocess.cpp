@@ -13,6 +13,7 @@
 
 #include "common/knn.h"
 #include "common/parallel.h"
+#include "novelty_detection/preprocess/input_check.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
 namespace novelty_detection {
@@ -145,11 +146,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
   Indices valid;  // the finite subset of `indices`; non-finite ones count as removed
   valid.reserve(indices.size());
   for (int i : indices) {
-    if (i < 0 || i >= static_cast<int>(cloud.size())) {
-      throw std::invalid_argument("removeSparseOutliers: index " + std::to_string(i) +
-                                  " outside a cloud of " + std::to_string(cloud.size()) +
-                                  " points");
-    }
+    requireIndexInCloud(cloud, i, "removeSparseOutliers");
     if (cloud[i].getVector3fMap().allFinite()) {
       valid.push_back(i);
     } else if (removed) {

@@ -43,6 +43,10 @@ const Cloud& usableView(const Cloud& cloud, Cloud* storage, std::size_t* out_of_
 /// Box of the usable points (empty box when there is none).
 Eigen::AlignedBox3d usableExtent(const Cloud& cloud);
 
+/// Throws std::invalid_argument "`who`: index i outside a cloud of N points" unless
+/// 0 <= index < cloud.size().
+void requireIndexInCloud(const Cloud& cloud, int index, const char* who);
+
 /// Throws std::invalid_argument when the usable points of `cloud` span less than 1 mm (all
 /// in one place: no map to compare with), naming `what` ("reference").
 void requireExtent(const Cloud& cloud, const char* what);
