@@ -165,10 +165,8 @@ void measureDistancesToMap(Detection& d) {
   constexpr int kBlock = 512;
   sample.resize((kept.size() + stride - 1) / stride);
   const int n_sample = static_cast<int>(sample.size());
-  detail::parallelFor((n_sample + kBlock - 1) / kBlock, threads, [&](int b) {
-    for (int k = b * kBlock; k < std::min(n_sample, (b + 1) * kBlock); ++k)
-      sample[k] =
-          d.ref.points.distance(point3f(current[kept[static_cast<std::size_t>(k) * stride]]));
+  detail::parallelForBlocks(n_sample, kBlock, threads, [&](int k) {
+    sample[k] = d.ref.points.distance(point3f(current[kept[static_cast<std::size_t>(k) * stride]]));
   });
   d.noise = estimateRangeNoise(d.s.tree, origin_known ? &origin : nullptr);
   const RangeNoise& noise = d.noise;
@@ -187,9 +185,8 @@ void measureDistancesToMap(Detection& d) {
   d.result.noise_model = noise.estimated ? noise.modelName() : std::string();
   const int n_fine = static_cast<int>(d.s.fine.points.size());
   std::vector<char> far(static_cast<std::size_t>(n_fine), 0);
-  detail::parallelFor((n_fine + kBlock - 1) / kBlock, threads, [&](int b) {
-    for (int c = b * kBlock; c < std::min(n_fine, (b + 1) * kBlock); ++c)
-      far[c] = d.ref.points.distance(d.s.fine.points[c]) > d.tau;
+  detail::parallelForBlocks(n_fine, kBlock, threads, [&](int c) {
+    far[c] = d.ref.points.distance(d.s.fine.points[c]) > d.tau;
   });
   std::vector<Eigen::Index> far_idx;
   for (int c = 0; c < n_fine; ++c)

@@ -68,5 +68,16 @@ void parallelFor(int n, int threads, F&& f) {
   }
 }
 
+/// f(i) for i in [0, n) in blocks of `block` consecutive items, each block on one thread
+/// (parallelFor over the blocks): neighbouring items touch the same memory, and each item
+/// must write only its own slots.
+template <class F>
+void parallelForBlocks(int n, int block, int threads, F&& f) {
+  parallelFor((n + block - 1) / block, threads, [&](int b) {
+    const int end = n - b * block < block ? n : (b + 1) * block;
+    for (int i = b * block; i < end; ++i) f(i);
+  });
+}
+
 }  // namespace detail
 }  // namespace novelty_detection

@@ -110,17 +110,14 @@ void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& point
   stats->kth.assign(n, 0.0);
   std::vector<char> kept_values(n, 0);
   constexpr int kBlock = 4096;
-  detail::parallelFor(static_cast<int>((n + kBlock - 1) / kBlock), threads, [&](int b) {
-    const int end = std::min(static_cast<int>(n), (b + 1) * kBlock);
-    for (int j = b * kBlock; j < end; ++j) {
-      const int e = before[static_cast<std::size_t>(j)];
-      if (lost_tree.nearestDistance(tree.point(j)) > earlier->kth[e]) {
-        stats->mean[j] = earlier->mean[e];
-        stats->kth[j] = earlier->kth[e];
-        kept_values[static_cast<std::size_t>(j)] = 1;
-      } else {
-        stats->mean[j] = tree.meanNeighbourDistance(j, k, &stats->kth[j]);
-      }
+  detail::parallelForBlocks(static_cast<int>(n), kBlock, threads, [&](int j) {
+    const int e = before[static_cast<std::size_t>(j)];
+    if (lost_tree.nearestDistance(tree.point(j)) > earlier->kth[e]) {
+      stats->mean[j] = earlier->mean[e];
+      stats->kth[j] = earlier->kth[e];
+      kept_values[static_cast<std::size_t>(j)] = 1;
+    } else {
+      stats->mean[j] = tree.meanNeighbourDistance(j, k, &stats->kth[j]);
     }
   });
   for (char c : kept_values) stats->reused += c;

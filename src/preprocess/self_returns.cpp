@@ -98,32 +98,30 @@ void markMatches(const Points& a, const std::vector<int>& a_index, const detail:
   // Blocks of points on `threads` threads: each point writes only its own (distinct) slot.
   constexpr int kBlock = 1024;
   const int n = static_cast<int>(a.size());
-  detail::parallelFor((n + kBlock - 1) / kBlock, threads, [&](int block) {
-    for (int i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
-      // Cheapest test first: a point the map explains within both distances fits neither rule
-      // (most of a sweep), whatever the robot's frame says.
-      const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
-      if (within(p, std::min(tol, novelty_distance))) continue;
-      if (within(p, novelty_distance)) {
-        // Then tol < novelty_distance (else the test above held), d_m > tol, and the second
-        // rule cannot hold (its bound is at least the novelty distance): the first holds
-        // when ds <= tol, all that is needed of ds.
-        if (b.anyWithin(a[i], tol)) (*mask)[a_index[i]] = 1;
-        continue;
-      }
-      const double ds = b.nearestDistance(a[i]);
-      const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
-      if (!(ds <= tol)) {
-        // Only the second rule can hold; the map test first (it settles most points), then
-        // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
-        if (sparse && !own.atLeast(a[i], k, [ds](float d2) {
-              return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
-            }))
-          (*mask)[a_index[i]] = 1;
-        continue;
-      }
-      if (sparse || !within(p, tol)) (*mask)[a_index[i]] = 1;
+  detail::parallelForBlocks(n, kBlock, threads, [&](int i) {
+    // Cheapest test first: a point the map explains within both distances fits neither rule
+    // (most of a sweep), whatever the robot's frame says.
+    const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();
+    if (within(p, std::min(tol, novelty_distance))) return;
+    if (within(p, novelty_distance)) {
+      // Then tol < novelty_distance (else the test above held), d_m > tol, and the second
+      // rule cannot hold (its bound is at least the novelty distance): the first holds
+      // when ds <= tol, all that is needed of ds.
+      if (b.anyWithin(a[i], tol)) (*mask)[a_index[i]] = 1;
+      return;
     }
+    const double ds = b.nearestDistance(a[i]);
+    const bool sparse = !within(p, std::max(novelty_distance, kFrameRatio * ds));
+    if (!(ds <= tol)) {
+      // Only the second rule can hold; the map test first (it settles most points), then
+      // ds <= kSpacingFactor * (k-th nearest distance) unless k points lie closer than that.
+      if (sparse && !own.atLeast(a[i], k, [ds](float d2) {
+            return kSpacingFactor * std::sqrt(static_cast<double>(d2)) < ds;
+          }))
+        (*mask)[a_index[i]] = 1;
+      return;
+    }
+    if (sparse || !within(p, tol)) (*mask)[a_index[i]] = 1;
   });
 }
 
