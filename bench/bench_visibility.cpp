@@ -102,8 +102,8 @@ void BM_NewlyVisible(benchmark::State& state) {
   const double tau = 0.1;
   std::vector<std::uint8_t> nv;
   for (auto _ : state)
-    nv = newlyVisible(r.current, labels, views, tau, tau,
-                      [&map](const Eigen::Vector3f& p) { return map.distance(p); });
+    nv = newlyVisible(r.current, labels, views, tau,
+                      [&map, tau](const Eigen::Vector3f& p) { return !map.within(p, tau); });
   addScores(state, "", nv, r.hidden);
   state.counters["points"] = static_cast<double>(r.current.size());
 }

@@ -365,14 +365,10 @@ void labelSegments(Detection& d) {
 void markNewlyVisible(Detection& d) {
   if (!d.params.visibility.newly_visible) return;
   const ReferenceModel& ref = d.ref;
-  // Only whether a point lies farther than tau from the map matters: a search that stops at
-  // the first map point within tau stands for the distance.
   const double tau = d.tau;
   d.result.newly_visible = newlyVisible(
-      *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * tau, tau,
-      [&ref, tau](const Eigen::Vector3f& p) {
-        return ref.points.within(p, tau) ? 0.0 : std::numeric_limits<double>::infinity();
-      });
+      *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * tau,
+      [&ref, tau](const Eigen::Vector3f& p) { return !ref.points.within(p, tau); });
   d.timer.lap("newly_visible");
 }
 

@@ -152,13 +152,14 @@ inline bool novelCandidate(bool have_visibility, Visibility v, bool explained,
 }
 
 /// Per point of `current` (input order): 1 when it is newly visible: not novel
-/// (labels[i] == 0), farther than `tau_m` from every reference point (`distance_to_map`
-/// answers that), and in space the reference did not observe (occluded or unknown in
-/// `reference`, with margin `margin_m`). All zeros when `reference` is empty.
-template <class DistanceFn>
+/// (labels[i] == 0), farther than the novelty distance from every reference point
+/// (`far_from_map(p)` says so: a search may stop at the first map point that close), and in
+/// space the reference did not observe (occluded or unknown in `reference`, with margin
+/// `margin_m`). All zeros when `reference` is empty.
+template <class FarFromMap>
 std::vector<std::uint8_t> newlyVisible(const Cloud& current, const std::vector<int>& labels,
                                        const ReferenceVisibility& reference, double margin_m,
-                                       double tau_m, DistanceFn&& distance_to_map) {
+                                       FarFromMap&& far_from_map) {
   std::vector<std::uint8_t> out(current.size(), 0);
   if (reference.empty()) return out;
   for (std::size_t i = 0; i < current.size(); ++i) {
@@ -167,7 +168,7 @@ std::vector<std::uint8_t> newlyVisible(const Cloud& current, const std::vector<i
     if (!p.allFinite()) continue;
     const Visibility v = reference.classify(p, margin_m, RangeImage::Neighbourhood::kOwnCell);
     if (v != Visibility::kOccluded && v != Visibility::kUnknown) continue;
-    if (distance_to_map(p) > tau_m) out[i] = 1;
+    if (far_from_map(p)) out[i] = 1;
   }
   return out;
 }
