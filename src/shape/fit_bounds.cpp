@@ -1,7 +1,5 @@
 #include "novelty_detection/shape/fit_bounds.h"
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -230,17 +228,12 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
 
 bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq) {
   if (points.size() < 3 || !sq) return false;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const auto& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : points) cov += (p - centroid) * (p - centroid).transpose();
-  cov /= static_cast<double>(points.size());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  const Eigen::Vector3d var = es.eigenvalues().cwiseMax(0.0);  // ascending
+  const PrincipalFrame f = principalFrame(points);
+  const Eigen::Vector3d& var = f.eigenvalues;  // ascending
   const double across = std::sqrt(std::max(0.0, var(0) - noise_m * noise_m));
   if (!(across <= kFlatRatio * std::sqrt(var(1)))) return false;
-  const Eigen::Vector3d normal = es.eigenvectors().col(0);
+  const Eigen::Vector3d normal = f.axes.col(0);
+  const Eigen::Vector3d& centroid = f.centroid;
   const Eigen::Matrix3d r = sq->rotation();
   const int k = axisNearest(r, normal);
   if (std::abs(r.col(k).dot(normal)) < std::cos(kThinAxisDeg * M_PI / 180.0)) return false;

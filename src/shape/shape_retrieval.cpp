@@ -62,8 +62,6 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // free one's mean surface distance is lower by more than corner_gain of the ellipsoid's
   // (both mostly the sensor noise when they fit, so the bar scales with it).
   const bool round_check = params_.corner_gain > 0.0;
-  // The ellipsoid is kept unless the free fit is closer to the points by more than
-  // corner_gain of the ellipsoid's distance.
   auto round_wins = [&](double round_distance, double free_distance) {
     return round_distance * (1.0 - params_.corner_gain) <= free_distance;
   };
