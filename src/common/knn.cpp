@@ -289,6 +289,7 @@ void KnnTree::within(const Eigen::Vector3f& p, double radius, std::vector<int>* 
 }
 
 void KnnTree::Moments::add(double x, double y, double z) {
+  x -= o[0], y -= o[1], z -= o[2];
   n += 1.0;
   s[0] += x, s[1] += y, s[2] += z;
   ss[0] += x * x, ss[1] += x * y, ss[2] += x * z, ss[3] += y * y, ss[4] += y * z, ss[5] += z * z;
@@ -300,8 +301,16 @@ void KnnTree::Moments::add(const Moments& m) {
   for (int a = 0; a < 6; ++a) ss[a] += m.ss[a];
 }
 
+KnnTree::Moments KnnTree::emptyMoments() const {
+  Moments m;
+  if (!nodes_.empty())
+    for (int a = 0; a < 3; ++a)
+      m.o[a] = 0.5 * (static_cast<double>(nodes_[0].lo[a]) + static_cast<double>(nodes_[0].hi[a]));
+  return m;
+}
+
 void KnnTree::buildMoments() {
-  moments_.assign(nodes_.size(), Moments());
+  moments_.assign(nodes_.size(), emptyMoments());
   // Preorder numbering: children come after their parent, so a reverse pass sees them first.
   for (int id = static_cast<int>(nodes_.size()) - 1; id >= 0; --id) {
     const Node& node = nodes_[id];
@@ -316,7 +325,7 @@ void KnnTree::buildMoments() {
 }
 
 KnnTree::Moments KnnTree::momentsWithin(const Eigen::Vector3f& p, double radius) const {
-  Moments out;
+  Moments out = emptyMoments();
   const auto point = [&](int i) { out.add(x_[i], y_[i], z_[i]); };
   if (moments_.size() == nodes_.size()) {
     visitWithin<true>(

@@ -85,11 +85,16 @@ class KnnTree {
 
   std::size_t size() const { return x_.size(); }
 
-  /// Sums over a set of points in double: their number, coordinate sums and the sums of the
-  /// products xx, xy, xz, yy, yz, zz.
+  /// Sums over a set of points in double, of their coordinates relative to `o` (the centre
+  /// of the tree's box, so that a covariance taken from them does not cancel for clouds far
+  /// from the frame's origin): their number, coordinate sums and the sums of the products
+  /// xx, xy, xz, yy, yz, zz.
   struct Moments {
+    double o[3] = {0.0, 0.0, 0.0};
     double n = 0.0, s[3] = {0.0, 0.0, 0.0}, ss[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    /// Adds the point at (x, y, z) - o.
     void add(double x, double y, double z);
+    /// Adds sums taken about the same o.
     void add(const Moments& m);
   };
   /// Each subtree's moments, kept for momentsWithin() (a tree without them sums point by point).
@@ -131,6 +136,8 @@ class KnnTree {
   /// subtree lying wholly inside the ball.
   template <bool kWhole, class Whole, class Point>
   void visitWithin(const Eigen::Vector3f& p, double radius, Whole whole, Point point) const;
+  /// Empty moments about the centre of the tree's box.
+  Moments emptyMoments() const;
 
   std::vector<float> x_, y_, z_;  ///< coordinates in tree order
   std::vector<int> id_;           ///< tree order -> input position

@@ -65,8 +65,8 @@ NearestNeighbourIndex::Neighbourhood NearestNeighbourIndex::neighbourhood(const 
   Neighbourhood out;
   out.count = static_cast<std::size_t>(m.n);
   if (m.n <= 0.0) return out;
-  out.centroid = Eigen::Vector3d(m.s[0], m.s[1], m.s[2]) / m.n;
-  const Eigen::Vector3d& c = out.centroid;
+  const Eigen::Vector3d c = Eigen::Vector3d(m.s[0], m.s[1], m.s[2]) / m.n;  // about m.o
+  out.centroid = Eigen::Vector3d(m.o[0], m.o[1], m.o[2]) + c;
   Eigen::Matrix3d& cov = out.covariance;
   cov(0, 0) = m.ss[0] / m.n - c.x() * c.x();
   cov(0, 1) = cov(1, 0) = m.ss[1] / m.n - c.x() * c.y();

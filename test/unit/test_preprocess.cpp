@@ -281,6 +281,31 @@ TEST(KnnTree, NeighbourhoodMomentsAreThoseOfThePointsWithin) {
     }
     EXPECT_GT(wholes, 20);  // balls holding whole subtrees were among the queries
   }
+  // Far from the frame's origin (a georeferenced map) the sums are taken about the tree's
+  // centre: sums of squares of coordinates near 5e4 m would cancel the covariance away.
+  nd::Cloud far;
+  for (const auto& p : pts) far.push_back(nd::PointT(5e4f + p.x(), 5e4f + p.y(), p.z()));
+  nd::NearestNeighbourIndex far_index;
+  far_index.build(far);
+  far_index.prepareMoments();
+  for (int q = 0; q < 50; ++q) {
+    const Eigen::Vector3f p = far_index.point(q * 131);
+    std::vector<int> ids;
+    far_index.withinIds(p, 0.3, &ids);
+    const auto n = far_index.neighbourhood(p, 0.3);
+    ASSERT_EQ(n.count, ids.size());
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int id : ids) c += far_index.point(id).cast<double>();
+    c /= static_cast<double>(ids.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int id : ids) {
+      const Eigen::Vector3d d = far_index.point(id).cast<double>() - c;
+      cov += d * d.transpose();
+    }
+    cov /= static_cast<double>(ids.size());
+    EXPECT_LT((n.centroid - c).norm(), 1e-9) << "query " << q;
+    EXPECT_LT((n.covariance - cov).cwiseAbs().maxCoeff(), 1e-9) << "query " << q;
+  }
   nd::NearestNeighbourIndex empty;
   empty.prepareMoments();
   EXPECT_EQ(empty.neighbourhood(Eigen::Vector3f::Zero(), 1.0).count, 0u);
