@@ -254,6 +254,28 @@ TEST(KnnTree, NeighbourhoodMomentsAreThoseOfThePointsWithin) {
   for (const auto& p : pts) cloud.push_back(nd::PointT(p.x(), p.y(), p.z()));
   nd::NearestNeighbourIndex index;
   index.build(cloud);
+  // neighbourhood(p, r) against the points withinIds() gives, summed two-pass in double;
+  // returns how many there are.
+  const auto check = [](const nd::NearestNeighbourIndex& tree, const Eigen::Vector3f& p, double r,
+                        int q) {
+    std::vector<int> ids;
+    tree.withinIds(p, r, &ids);
+    const auto n = tree.neighbourhood(p, r);
+    EXPECT_EQ(n.count, ids.size()) << "query " << q;
+    if (ids.empty()) return std::size_t{0};
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int id : ids) c += tree.point(id).cast<double>();
+    c /= static_cast<double>(ids.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int id : ids) {
+      const Eigen::Vector3d d = tree.point(id).cast<double>() - c;
+      cov += d * d.transpose();
+    }
+    cov /= static_cast<double>(ids.size());
+    EXPECT_LT((n.centroid - c).norm(), 1e-9) << "query " << q;
+    EXPECT_LT((n.covariance - cov).cwiseAbs().maxCoeff(), 1e-9) << "query " << q;
+    return ids.size();
+  };
   for (const bool prepared : {false, true}) {
     if (prepared) index.prepareMoments();
     int wholes = 0;
@@ -261,23 +283,7 @@ TEST(KnnTree, NeighbourhoodMomentsAreThoseOfThePointsWithin) {
       const Eigen::Vector3f p = q % 2 ? pts[static_cast<std::size_t>(q) * 37]
                                       : Eigen::Vector3f(5.f + u(rng), -3.f + u(rng), 0.f);
       const double r = q % 3 == 0 ? 0.02 : (q % 3 == 1 ? 0.08 : 0.3);
-      std::vector<int> ids;
-      index.withinIds(p, r, &ids);
-      const auto n = index.neighbourhood(p, r);
-      ASSERT_EQ(n.count, ids.size()) << "query " << q;
-      if (ids.empty()) continue;
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      for (int id : ids) c += index.point(id).cast<double>();
-      c /= static_cast<double>(ids.size());
-      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (int id : ids) {
-        const Eigen::Vector3d d = index.point(id).cast<double>() - c;
-        cov += d * d.transpose();
-      }
-      cov /= static_cast<double>(ids.size());
-      EXPECT_LT((n.centroid - c).norm(), 1e-9) << "query " << q;
-      EXPECT_LT((n.covariance - cov).cwiseAbs().maxCoeff(), 1e-9) << "query " << q;
-      wholes += ids.size() > 100;
+      wholes += check(index, p, r, q) > 100;
     }
     EXPECT_GT(wholes, 20);  // balls holding whole subtrees were among the queries
   }
@@ -289,22 +295,7 @@ TEST(KnnTree, NeighbourhoodMomentsAreThoseOfThePointsWithin) {
   far_index.build(far);
   far_index.prepareMoments();
   for (int q = 0; q < 50; ++q) {
-    const Eigen::Vector3f p = far_index.point(q * 131);
-    std::vector<int> ids;
-    far_index.withinIds(p, 0.3, &ids);
-    const auto n = far_index.neighbourhood(p, 0.3);
-    ASSERT_EQ(n.count, ids.size());
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int id : ids) c += far_index.point(id).cast<double>();
-    c /= static_cast<double>(ids.size());
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (int id : ids) {
-      const Eigen::Vector3d d = far_index.point(id).cast<double>() - c;
-      cov += d * d.transpose();
-    }
-    cov /= static_cast<double>(ids.size());
-    EXPECT_LT((n.centroid - c).norm(), 1e-9) << "query " << q;
-    EXPECT_LT((n.covariance - cov).cwiseAbs().maxCoeff(), 1e-9) << "query " << q;
+    check(far_index, far_index.point(q * 131), 0.3, q);
   }
   nd::NearestNeighbourIndex empty;
   empty.prepareMoments();
