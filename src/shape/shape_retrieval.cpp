@@ -97,6 +97,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
   SplitMerge split_merge(params_);
   split_merge.setThreads(threads_);
+  // The nugget of dense, noisy views comes out low; the sweep's noise model bounds it.
+  if (bounds) split_merge.setSensorNoise(bounds->noise_m);
   std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {

@@ -233,8 +233,11 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
   }
   // Which node each point belongs to (leaves only), for the residual noise of a part.
   std::vector<int> owner(points.size(), 0);
+  // The nugget, at least the sensor's own noise (see the header).
   auto part_noise = [&](const Node& node) {
-    return grid ? residualNoise(points, node.indices, owner, node.fit.sq, *grid, radius) : 0.0;
+    const double nugget =
+        grid ? residualNoise(points, node.indices, owner, node.fit.sq, *grid, radius) : 0.0;
+    return std::max(nugget, sensor_noise_);
   };
   nodes[0].noise = part_noise(nodes[0]);
   stats_.residual_noise_m = nodes[0].noise;

@@ -3,11 +3,16 @@
 // merge equals the recompute-everything merge.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <map>
 #include <random>
 
+#include "novelty_detection/pipeline.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/shape/split_merge.h"
 #include "novelty_detection/shape/superquadric.h"
+#include "novelty_detection/sim/scene.h"
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;
@@ -232,4 +237,40 @@ TEST(ShapeRetrieval, DegenerateSegmentsGiveFiniteSuperquadrics) {
     EXPECT_EQ(n, fine.size());
   }
   EXPECT_THROW(retrieval.recover({Eigen::Vector3d(0, NAN, 0)}, {}, 1), std::invalid_argument);
+}
+
+// Spheres seen by the simulated tilting laser at the paper's range noise (sigma 3.2 cm), 24
+// seeded scenes: a found sphere is one superquadric (measured: 23 of 24). The sensor's noise
+// model bounds each part's residual noise, which dense, noisy views underestimate; with the
+// residual nugget alone 20 of the 24 were one part, near ones cut into 2-3 pieces.
+TEST(ShapeRetrieval, SimulatedSpheresAreOnePart) {
+  int found = 0, one_part = 0, most_parts = 0;
+  for (std::uint64_t seed = 1; seed <= 24; ++seed) {
+    sim::SceneConfig c;
+    c.seed = seed;
+    c.novelty_kinds = {sim::NoveltyKind::kSphere};
+    const sim::ScenePair s = sim::generateScenePair(c);
+    Params params;
+    params.compute.threads = 1;
+    Pipeline pipeline(params);
+    pipeline.setReference(s.reference);
+    const Result r = pipeline.detect(s.current);
+    // The segment holding most of the sphere's points.
+    std::map<int, int> on_sphere;
+    for (std::size_t i = 0; i < r.labels.size(); ++i)
+      if (r.labels[i] > 0 && s.current_labels[i] > 0) ++on_sphere[r.labels[i]];
+    if (on_sphere.empty()) continue;
+    const int segment = std::max_element(on_sphere.begin(), on_sphere.end(), [](auto& a, auto& b) {
+                          return a.second < b.second;
+                        })->first;
+    int parts = 0;
+    for (const auto& sq : r.superquadrics) parts += sq.segment == segment;
+    ++found;
+    one_part += parts == 1;
+    most_parts = std::max(most_parts, parts);
+  }
+  std::printf("%d spheres found, %d of them one part, at most %d parts\n", found, one_part,
+              most_parts);
+  EXPECT_GE(found, 20);
+  EXPECT_GE(one_part, found - 2);
 }

@@ -2,6 +2,7 @@
 // Chevalier, Jaillet and Baskurt 2003). ROS-free.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -27,7 +28,11 @@ struct SuperquadricPart {
 /// each point and of its nearest neighbour along the tangent plane differ by noise alone,
 /// sigma_P^2 = median of their squared difference / (2 * 0.4549)). Unlike the plane RMS it
 /// sees range noise on laser sweeps (each scan line is exactly planar), so noisy cylinders
-/// are not split into pieces.
+/// are not split into pieces. It is at least the sweep's own noise at the segment's range
+/// (setSensorNoise()): where the noise is several times the point spacing, a point's
+/// nearest neighbours are those its noise moved alike, and the nugget comes out low
+/// (measured: 1.1 cm on a cylinder 1.1 m from a laser with 3.2 cm range noise, whose fit
+/// is within 2.2 cm of its points), which cut dense views of single shapes into many parts.
 ///
 /// Split: a part P (n points, fit error e = mean first-order Euclidean distance,
 /// meanSurfaceDistance(), comparable with the noise unlike the radial distance) is cut by the plane
@@ -73,6 +78,12 @@ class SplitMerge {
   /// Threads for the independent fits (halves of a split, merge costs, refits); the result
   /// is the same for any count. Default: ComputeParams().resolved().
   void setThreads(int threads) { threads_ = threads < 1 ? 1 : threads; }
+  /// The sensor's noise normal to the surface where the points lie (the sweep's noise model,
+  /// preprocess/range_noise.h) [m]: a floor of every part's residual noise sigma_P. 0 (the
+  /// default; also for a negative or non-finite value): the nugget alone.
+  void setSensorNoise(double noise_m) {
+    sensor_noise_ = noise_m > 0.0 && std::isfinite(noise_m) ? noise_m : 0.0;
+  }
 
   /// Parts of `points` (one connected object or a few touching ones). `whole` (optional)
   /// is an already fitted model of all points, reused as the root's fit.
@@ -87,7 +98,8 @@ class SplitMerge {
     int dissolved = 0;              ///< junction pieces dissolved into their neighbours
     double noise_m = 0.0;           ///< estimated sensor noise: max of the two below [m]
     double plane_noise_m = 0.0;     ///< local plane RMS [m]
-    double residual_noise_m = 0.0;  ///< nugget of the whole fit's residuals [m]
+    double residual_noise_m = 0.0;  ///< nugget of the whole fit's residuals (at least the
+                                    ///< sensor noise given) [m]
   };
   const Stats& stats() const { return stats_; }
 
@@ -115,6 +127,7 @@ class SplitMerge {
   SuperquadricFitter fitter_;
   bool memoize_ = true;
   int threads_ = ComputeParams().resolved();
+  double sensor_noise_ = 0.0;
   mutable Stats stats_;
 };
 
