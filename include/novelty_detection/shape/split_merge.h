@@ -96,7 +96,7 @@ class SplitMerge {
     int merge_fits = 0;  ///< merged fits computed (memoization lowers it)
     int neighbour_pairs = 0;
     int dissolved = 0;              ///< junction pieces dissolved into their neighbours
-    double noise_m = 0.0;           ///< estimated sensor noise: max of the two below [m]
+    double noise_m = 0.0;           ///< sensor noise that E scales with: the plane RMS [m]
     double plane_noise_m = 0.0;     ///< local plane RMS [m]
     double residual_noise_m = 0.0;  ///< nugget of the whole fit's residuals (at least the
                                     ///< sensor noise given) [m]
