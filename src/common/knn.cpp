@@ -74,8 +74,7 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
   for (int i = 0; i < n; ++i) items[i] = {points[i], i};
   leaf_of_.assign(n, -1);
   nodes_.reserve(static_cast<std::size_t>(n / (kLeafSize / 2) + 2));
-  constexpr int kParallelBuild = 20000;  // below this, starting a thread costs more
-  if (n > 0 && threads > 1 && n >= kParallelBuild) {
+  if (n > 0 && threads > 1 && n >= kMinPointsForParallelBuild) {
     // The root's split here, its two subtrees on two threads, then numbered as the serial
     // build numbers them (root, left subtree, right subtree, each in preorder): the same tree.
     nodes_.push_back(nodeOver(items, 0, n, -1));

@@ -247,8 +247,7 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
   const auto capacity = [](int points) {
     return static_cast<std::size_t>(2 * points / std::max(1, kMaxLeafSize / 2) + 1);
   };
-  constexpr int kParallelBuild = 20000;  // below this, a second thread costs more
-  const bool parallel = threads > 1 && n >= kParallelBuild;
+  const bool parallel = threads > 1 && n >= detail::kMinPointsForParallelBuild;
   Growing whole;
   {
     // The parallel build keeps only the root and its children here; each subtree holds its
