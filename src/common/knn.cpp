@@ -113,6 +113,22 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
   }
 }
 
+namespace {
+/// Inserts d into the ascending list d2[0, k) (entries not yet filled are +infinity),
+/// dropping its largest entry, without branches: the j-th entry becomes the larger of the
+/// old (j-1)-th and the smaller of the old j-th and d. An insertion's position is
+/// unpredictable, and the branches of a shifting insertion were most of a search's time.
+template <int K>
+inline void insertSorted(float d, float* d2) {
+  for (int j = K - 1; j > 0; --j) d2[j] = std::max(d2[j - 1], std::min(d2[j], d));
+  d2[0] = std::min(d2[0], d);
+}
+inline void insertSorted(float d, int k, float* d2) {
+  for (int j = k - 1; j > 0; --j) d2[j] = std::max(d2[j - 1], std::min(d2[j], d));
+  d2[0] = std::min(d2[0], d);
+}
+}  // namespace
+
 void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, int* count) const {
   const Node& node = nodes_[node_id];
   if (node.left < 0) {
@@ -120,12 +136,12 @@ void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, in
       const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
       const float d = dx * dx + dy * dy + dz * dz;
       if ((*count == k && d >= d2[k - 1]) || i == self) continue;
-      int j = *count < k ? (*count)++ : k - 1;  // insertion into the sorted list
-      while (j > 0 && d2[j - 1] > d) {
-        d2[j] = d2[j - 1];
-        --j;
+      if (k == 8) {
+        insertSorted<8>(d, d2);
+      } else {
+        insertSorted(d, k, d2);
       }
-      d2[j] = d;
+      if (*count < k) ++*count;
     }
     return;
   }
@@ -149,6 +165,7 @@ void KnnTree::searchFromLeaf(int t, int k, float* d2, int* count) const {
   // stopping once the ball through the k-th neighbour lies inside the current subtree.
   const float q[3] = {x_[t], y_[t], z_[t]};
   *count = 0;
+  std::fill(d2, d2 + k, std::numeric_limits<float>::infinity());
   int node = leaf_of_[t];
   search(node, q, t, k, d2, count);
   while (nodes_[node].parent >= 0) {
@@ -234,7 +251,7 @@ double KnnTree::meanNeighbourDistance(int index, int k, double* kth) const {
 double KnnTree::nearestDistance(const Eigen::Vector3f& p) const {
   if (nodes_.empty()) return std::numeric_limits<double>::infinity();
   const float q[3] = {p.x(), p.y(), p.z()};
-  float d2 = 0.f;
+  float d2 = std::numeric_limits<float>::infinity();
   int count = 0;
   search(0, q, -1, 1, &d2, &count);  // node 0 is the root; -1: no point is the query itself
   return count ? std::sqrt(static_cast<double>(d2)) : std::numeric_limits<double>::infinity();
@@ -245,7 +262,7 @@ double KnnTree::kthNearestDistance(const Eigen::Vector3f& p, int k) const {
     return std::numeric_limits<double>::infinity();
   }
   const float q[3] = {p.x(), p.y(), p.z()};
-  std::vector<float> d2(static_cast<std::size_t>(k));
+  std::vector<float> d2(static_cast<std::size_t>(k), std::numeric_limits<float>::infinity());
   int count = 0;
   search(0, q, -1, k, d2.data(), &count);
   return count == k ? std::sqrt(static_cast<double>(d2[k - 1]))

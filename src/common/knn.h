@@ -130,6 +130,9 @@ class KnnTree {
   std::vector<double> forEachNeighbourhood(int k, int threads, Reduce reduce) const;
   /// The k nearest other points of tree position t, searched bottom-up from its leaf.
   void searchFromLeaf(int t, int k, float* d2, int* count) const;
+  /// Adds the k nearest points of the subtree `node` to q (other than tree position `self`)
+  /// into the ascending list d2 of `count` <= k squared distances; entries past `count` must
+  /// be +infinity.
   void search(int node, const float* q, int self, int k, float* d2, int* count) const;
   /// The points closer than `radius` to p (float squared distance below radius^2), depth
   /// first in tree order: point(tree position) for each, or with kWhole, whole(node) for a
