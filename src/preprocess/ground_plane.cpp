@@ -40,22 +40,23 @@ double medianOf(std::vector<double>& v) {
 void floorNoise(const std::vector<double>& r, double w, double* mu, double* sigma) {
   const double uniform = 1.0 / (2.0 * w);
   double pi = 0.5, m = *mu, s = *sigma;
+  std::vector<double> resps(r.size());  // each residual's responsibility, for both sums
   for (int it = 0; it < 30; ++it) {
     double sw = 0.0, swr = 0.0, swrr = 0.0;
-    for (double x : r) {
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const double x = r[i];
       const double z = (x - m) / s;
       const double g = pi * std::exp(-0.5 * z * z) / (s * std::sqrt(2.0 * M_PI));
       const double resp = g / (g + (1.0 - pi) * uniform);
+      resps[i] = resp;
       sw += resp;
       swr += resp * x;
     }
     if (!(sw > 3.0)) break;
     const double new_m = swr / sw;
-    for (double x : r) {
-      const double z = (x - m) / s;
-      const double g = pi * std::exp(-0.5 * z * z) / (s * std::sqrt(2.0 * M_PI));
-      const double resp = g / (g + (1.0 - pi) * uniform);
-      swrr += resp * (x - new_m) * (x - new_m);
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const double x = r[i];
+      swrr += resps[i] * (x - new_m) * (x - new_m);
     }
     const double new_s = std::max(std::sqrt(swrr / sw), 1e-5);
     const bool done = std::abs(new_s - s) <= 1e-3 * s && std::abs(new_m - m) <= 1e-6;
