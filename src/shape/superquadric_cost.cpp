@@ -180,18 +180,65 @@ bool SuperquadricBatchResidual::evaluate(double const* const* parameters, double
 
 SuperquadricOutsideResidual::SuperquadricOutsideResidual(const std::vector<Eigen::Vector3d>& q,
                                                          double weight)
-    : inner_(q), weight_(weight) {
+    : q_(3, static_cast<Eigen::Index>(q.size())), weight_(weight) {
+  for (std::size_t i = 0; i < q.size(); ++i) q_.col(static_cast<Eigen::Index>(i)) = q[i];
   set_num_residuals(static_cast<int>(q.size()));
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
 }
 
 bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
-  if (!inner_.Evaluate(parameters, residuals, jacobians)) return false;
-  for (int i = 0; i < num_residuals(); ++i) {
-    const double scale = residuals[i] < 0.0 ? -weight_ : 0.0;
-    residuals[i] *= scale;
-    detail::scaleJacobianRow(jacobians, i, scale);
+  using detail::kBlockSizes;
+  const Eigen::Index n = q_.cols();
+  std::fill(residuals, residuals + n, 0.0);
+  if (jacobians) {
+    for (int b = 0; b < 4; ++b)
+      if (jacobians[b]) std::fill(jacobians[b], jacobians[b] + n * kBlockSizes[b], 0.0);
+  }
+  // The points inside the model's box, p = Exp(w)^T (q - t) as the kernel computes it.
+  const RotationTerms rt = rotationTerms(parameters[2]);
+  const double* a = parameters[0];
+  const double* t = parameters[3];
+  const Eigen::Vector3d& w = rt.w;
+  inside_box_.clear();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d d = q_.col(i) - Eigen::Vector3d(t[0], t[1], t[2]);
+    const Eigen::Vector3d wxd = w.cross(d);
+    const Eigen::Vector3d p = d - rt.sa * wxd + rt.sb * w.cross(wxd);
+    if (std::abs(p.x()) < a[0] && std::abs(p.y()) < a[1] && std::abs(p.z()) < a[2])
+      inside_box_.push_back(static_cast<int>(i));
+  }
+  const Eigen::Index m = static_cast<Eigen::Index>(inside_box_.size());
+  if (m == 0) return true;
+  box_q_.resize(3, m);
+  for (Eigen::Index j = 0; j < m; ++j) box_q_.col(j) = q_.col(inside_box_[j]);
+  terms_.resize(m, detail::kTerms);
+  detail::JacobianOut out;
+  if (jacobians) {
+    for (int b = 0; b < 4; ++b) {
+      rows_[b].resize(static_cast<std::size_t>(m) * kBlockSizes[b]);
+      out.block[b] = jacobians[b] ? rows_[b].data() : nullptr;
+      out.row_stride[b] = kBlockSizes[b];
+      out.col_stride[b] = 1;
+    }
+  }
+  for (Eigen::Index begin = 0; begin < m; begin += detail::kKernelChunk) {
+    const Eigen::Index len = std::min(detail::kKernelChunk, m - begin);
+    detail::superquadricTerms(parameters, box_q_.data(), terms_.data(), m, begin, len);
+    if (jacobians)
+      detail::superquadricJacobian(parameters, terms_.data(), m, begin, len, advanced(out, begin));
+  }
+  for (Eigen::Index j = 0; j < m; ++j) {
+    const int i = inside_box_[j];
+    const double r = terms_(j, detail::kResidual);
+    if (!(r < 0.0)) continue;  // outside the model: zero and flat
+    residuals[i] = -weight_ * r;
+    if (!jacobians) continue;
+    for (int b = 0; b < 4; ++b) {
+      if (!jacobians[b]) continue;
+      for (int k = 0; k < kBlockSizes[b]; ++k)
+        jacobians[b][i * kBlockSizes[b] + k] = -weight_ * rows_[b][j * kBlockSizes[b] + k];
+    }
   }
   return true;
 }

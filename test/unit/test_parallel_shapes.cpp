@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -131,6 +132,57 @@ TEST(SuperquadricCost, BatchResidualEqualsOneResidualPerPoint) {
       }
     }
   }
+}
+
+// The hinge on outside points: weight * max(0, -r) with its derivatives, r eq. 3's
+// residual of the point (one residual per point), zero and flat outside the superquadric,
+// whether the point lies inside the model's box or beyond it (those are skipped without
+// eq. 3). Points in and around the model, some with a null Jacobian block asked.
+TEST(SuperquadricCost, OutsideResidualIsTheHingeOfEq3) {
+  std::mt19937 rng(11);
+  int inside = 0, outside = 0;
+  for (int trial = 0; trial < 21; ++trial) {
+    const CostCase c(rng, trial, trial % 2 ? 0.5 : 1.5);
+    const std::vector<Eigen::Vector3d>& q = c.q;
+    const std::size_t n = q.size();
+    const double weight = 0.5 + trial;
+    const SuperquadricOutsideResidual hinge(q, weight);
+    ASSERT_EQ(hinge.num_residuals(), static_cast<int>(n));
+    const int sizes[4] = {3, 2, 3, 3};
+    std::vector<double> r(n, -1.0), j[4];
+    double* jac[4];
+    for (int b = 0; b < 4; ++b) {
+      j[b].assign(n * sizes[b], -1.0);  // every entry must be written
+      jac[b] = trial % 5 == 4 && b == 1 ? nullptr : j[b].data();
+    }
+    ASSERT_TRUE(hinge.Evaluate(c.params, r.data(), jac));
+    std::vector<double> r_only(n, -1.0);
+    ASSERT_TRUE(hinge.Evaluate(c.params, r_only.data(), nullptr));
+    for (std::size_t i = 0; i < n; ++i) {
+      std::unique_ptr<ceres::CostFunction> one(SuperquadricAnalyticResidual::Create(q[i]));
+      double r1, j1[4][3];
+      double* jac1[4] = {j1[0], j1[1], j1[2], j1[3]};
+      ASSERT_TRUE(one->Evaluate(c.params, &r1, jac1));
+      const double scale = r1 < 0.0 ? -weight : 0.0;
+      (r1 < 0.0 ? inside : outside)++;
+      EXPECT_NEAR(r[i], scale * r1, 1e-12 * weight * (1.0 + std::abs(r1))) << "point " << i;
+      EXPECT_GE(r[i], 0.0);
+      EXPECT_EQ(r_only[i], r[i]);
+      for (int b = 0; b < 4; ++b) {
+        if (!jac[b]) continue;
+        for (int k = 0; k < sizes[b]; ++k) {
+          EXPECT_NEAR(j[b][sizes[b] * i + k], scale * j1[b][k],
+                      1e-10 * weight * (1.0 + std::abs(j1[b][k])))
+              << "point " << i << " block " << b << " index " << k;
+        }
+      }
+    }
+  }
+  // Both sides were exercised.
+  EXPECT_GT(inside, 50);
+  EXPECT_GT(outside, 500);
+  std::printf("outside residual: %d points inside the superquadrics, %d outside\n", inside,
+              outside);
 }
 
 // With a surface weight the batched block appends each point's first-order surface

@@ -128,6 +128,9 @@ class SuperquadricSurfaceResidual : public ceres::CostFunction {
 
 /// The hinge on outside points (fit_bounds.h): per point weight * max(0, -r), r eq. 3's
 /// residual (negative inside the superquadric), with its derivatives; zero and flat outside.
+/// A superquadric lies within its box |x| <= a1, |y| <= a2, |z| <= a3: eq. 3 is evaluated
+/// only for the points inside the box at the given parameters (most of a fit's outside
+/// points lie beyond it), the others are zero without their logs and exps.
 class SuperquadricOutsideResidual : public ceres::CostFunction {
  public:
   /// `q`: the outside points in the start model's frame.
@@ -137,8 +140,13 @@ class SuperquadricOutsideResidual : public ceres::CostFunction {
                 double** jacobians) const override;
 
  private:
-  SuperquadricBatchResidual inner_;
+  Eigen::Matrix3Xd q_;
   double weight_;
+  // Scratch of an evaluation, kept to avoid allocating at each one.
+  mutable std::vector<int> inside_box_;  ///< the points inside the model's box
+  mutable Eigen::Matrix3Xd box_q_;       ///< their coordinates
+  mutable Eigen::MatrixXd terms_;        ///< their kernel terms
+  mutable std::vector<double> rows_[4];  ///< their Jacobian blocks, row-major
 };
 
 /// Support on a plane (fit_bounds.h): weight * (height of the superquadric's lowest extent
