@@ -171,7 +171,7 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
   const Vec scale =
       (Vec::Ones() + at_x->jacobian.colwise().norm().transpose()).cwiseInverse().cwiseProduct(free);
   double radius = kInitialRadius, decrease_factor = 2.0;
-  Mat jtj = at_x->jacobian.transpose() * at_x->jacobian;
+  Mat jtj = at_x->jacobian.transpose().lazyProduct(at_x->jacobian);
   Vec gradient = at_x->jacobian.transpose() * at_x->residuals;
   auto projected_gradient_norm = [&] {
     double norm = 0.0;
@@ -294,7 +294,7 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
       x = candidate;
       x_cost = candidate_cost;
       std::swap(at_x, at_candidate);
-      jtj = at_x->jacobian.transpose() * at_x->jacobian;
+      jtj = at_x->jacobian.transpose().lazyProduct(at_x->jacobian);
       gradient = at_x->jacobian.transpose() * at_x->residuals;
       const double t = 2.0 * rho - 1.0;
       radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - t * t * t));
