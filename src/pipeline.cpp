@@ -222,6 +222,28 @@ void selectNovelGaussians(Detection& d) {
 
 /// ChoosePtfromGaussian (posterior mass of the novel Gaussians, the distance check and the
 /// visibility rule: segmentation/novelty_candidates.h), then the novel points' segments
+/// An index over cloud[pre.kept] (in that order): outlier removal's index over the distinct
+/// points restricted to the kept ones when it covers them, else built.
+NearestNeighbourIndex keptIndex(const Cloud& cloud, const PreprocessResult& pre, int threads) {
+  const Indices& distinct = pre.statistics.points;  // the cloud index of each indexed point
+  if (pre.distinct_index && distinct.size() == pre.distinct_index->size()) {
+    std::vector<char> in_kept(cloud.size(), 0);
+    for (int i : pre.kept) in_kept[static_cast<std::size_t>(i)] = 1;
+    std::vector<char> keep(distinct.size(), 0);
+    Indices order;  // the cloud indices of the restricted index's points, in its order
+    order.reserve(pre.kept.size());
+    for (std::size_t j = 0; j < distinct.size(); ++j) {
+      if (!in_kept[static_cast<std::size_t>(distinct[j])]) continue;
+      keep[j] = 1;
+      order.push_back(distinct[j]);
+    }
+    if (order == pre.kept) return pre.distinct_index->restricted(keep);
+  }
+  NearestNeighbourIndex index;
+  index.build(cloud, pre.kept, threads);
+  return index;
+}
+
 /// (linked pieces, merged per novel Gaussian: novelty_segmentation.h).
 void segmentCandidates(Detection& d) {
   const Cloud& current = *d.current;
@@ -237,7 +259,7 @@ void segmentCandidates(Detection& d) {
   d.result.point_counts.emplace_back("novel_points", cand.novel.size());
   const int num_gaussians = static_cast<int>(d.result.current_gmm.size());
   // One index over the kept points serves the link radius cap and the object completion.
-  d.kept_index.build(current, d.s.pre.kept, d.params.compute.resolved());
+  d.kept_index = keptIndex(current, d.s.pre, d.params.compute.resolved());
   SweepContext sweep;
   sweep.kept = &d.s.pre.kept;
   sweep.kept_index = &d.kept_index;
@@ -467,11 +489,11 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
     if (d.s.reps.size() == 0) return std::move(d.result);
   }
   d.result.point_counts.emplace_back("self_returns", d.self_returns);
-  d.s.pre.distinct_index.reset();  // the robot-return test was their last user
-  d.s.pre.statistics = {};
   fitCurrentMixture(d);
   selectNovelGaussians(d);
   segmentCandidates(d);
+  d.s.pre.distinct_index.reset();  // the index over the kept points was their last user
+  d.s.pre.statistics = {};
   buildCurrentView(d);
   findDisappearedStructure(d);
   addHiddenNovelties(d);

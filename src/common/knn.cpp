@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 
 namespace novelty_detection {
@@ -111,6 +112,67 @@ KnnTree::KnnTree(const std::vector<Eigen::Vector3f>& points, int threads) {
     id_[i] = items[i].id;
     position_of_[items[i].id] = i;
   }
+}
+
+KnnTree KnnTree::restricted(const std::vector<char>& keep) const {
+  const int n = static_cast<int>(x_.size());
+  if (keep.size() != x_.size())
+    throw std::invalid_argument("KnnTree::restricted: one flag per indexed point expected");
+  KnnTree out;
+  // New input positions: the kept points in input order.
+  std::vector<int> rank(static_cast<std::size_t>(n), -1);
+  int kept = 0;
+  for (int i = 0; i < n; ++i)
+    if (keep[static_cast<std::size_t>(i)]) rank[static_cast<std::size_t>(i)] = kept++;
+  // New tree positions: the kept points in tree order; before[t] of them precede position t.
+  std::vector<int> before(static_cast<std::size_t>(n) + 1, 0);
+  out.x_.reserve(static_cast<std::size_t>(kept));
+  out.y_.reserve(static_cast<std::size_t>(kept));
+  out.z_.reserve(static_cast<std::size_t>(kept));
+  out.id_.reserve(static_cast<std::size_t>(kept));
+  out.leaf_of_.reserve(static_cast<std::size_t>(kept));
+  out.position_of_.assign(static_cast<std::size_t>(kept), -1);
+  for (int t = 0; t < n; ++t) {
+    const int r = rank[static_cast<std::size_t>(id_[t])];
+    before[static_cast<std::size_t>(t) + 1] = before[static_cast<std::size_t>(t)] + (r >= 0);
+    if (r < 0) continue;
+    out.position_of_[static_cast<std::size_t>(r)] = static_cast<int>(out.x_.size());
+    out.x_.push_back(x_[t]);
+    out.y_.push_back(y_[t]);
+    out.z_.push_back(z_[t]);
+    out.id_.push_back(r);
+    out.leaf_of_.push_back(leaf_of_[t]);
+  }
+  if (kept == 0) return KnnTree();
+  // The same nodes over the kept ranges; boxes from the points (leaves) and the children
+  // (preorder numbering: children after their parent, so a reverse pass sees them first).
+  // An empty box is inverted (lo > hi): its distance from any point is infinite.
+  out.nodes_ = nodes_;
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int id = static_cast<int>(out.nodes_.size()) - 1; id >= 0; --id) {
+    Node& node = out.nodes_[static_cast<std::size_t>(id)];
+    node.begin = before[static_cast<std::size_t>(node.begin)];
+    node.end = before[static_cast<std::size_t>(node.end)];
+    for (int a = 0; a < 3; ++a) node.lo[a] = inf, node.hi[a] = -inf;
+    if (node.left >= 0) {
+      for (const int c : {node.left, node.right}) {
+        const Node& child = out.nodes_[static_cast<std::size_t>(c)];
+        for (int a = 0; a < 3; ++a) {
+          node.lo[a] = std::min(node.lo[a], child.lo[a]);
+          node.hi[a] = std::max(node.hi[a], child.hi[a]);
+        }
+      }
+      continue;
+    }
+    for (int i = node.begin; i < node.end; ++i) {
+      const float p[3] = {out.x_[i], out.y_[i], out.z_[i]};
+      for (int a = 0; a < 3; ++a) {
+        node.lo[a] = std::min(node.lo[a], p[a]);
+        node.hi[a] = std::max(node.hi[a], p[a]);
+      }
+    }
+  }
+  return out;
 }
 
 namespace {

@@ -85,6 +85,13 @@ class KnnTree {
 
   std::size_t size() const { return x_.size(); }
 
+  /// The tree restricted to the points at the input positions p with keep[p] != 0 (keep has
+  /// one flag per indexed point): the same subtrees, their boxes shrunk to the points they
+  /// keep (an emptied one is never entered), the kept points numbered in input order. Every
+  /// query is as exact as on a tree built over those points; within() may list them in
+  /// another order. Linear in the points: no median is searched again.
+  KnnTree restricted(const std::vector<char>& keep) const;
+
   /// Sums over a set of points in double, of their coordinates relative to `o` (the centre
   /// of the tree's box, so that a covariance taken from them does not cancel for clouds far
   /// from the frame's origin): their number, coordinate sums and the sums of the products

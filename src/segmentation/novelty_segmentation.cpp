@@ -44,6 +44,15 @@ void NearestNeighbourIndex::build(const Cloud& cloud, const Indices& indices, in
   impl_->tree = detail::KnnTree(impl_->points, threads);
 }
 
+NearestNeighbourIndex NearestNeighbourIndex::restricted(const std::vector<char>& keep) const {
+  NearestNeighbourIndex out;
+  out.impl_->tree = impl_->tree.restricted(keep);  // checks the flags' count
+  out.impl_->points.reserve(out.impl_->tree.size());
+  for (std::size_t i = 0; i < keep.size(); ++i)
+    if (keep[i]) out.impl_->points.push_back(impl_->points[i]);
+  return out;
+}
+
 bool NearestNeighbourIndex::empty() const { return impl_->points.empty(); }
 
 double NearestNeighbourIndex::distance(const Eigen::Vector3f& p) const {

@@ -169,6 +169,59 @@ TEST(KnnTree, ParallelBuildIsTheSameTree) {
   }
 }
 
+// A tree restricted to a subset of its points (the sweep's kept points out of the distinct
+// ones) answers every query as a tree built over the subset does: the same distances and
+// statistics to the bit, the same points within a radius (in any order), the same sums of
+// moments up to rounding; all, one or none of the points kept, and a clustered removal
+// (a floor) that empties whole subtrees.
+TEST(KnnTree, RestrictedTreeAnswersAsABuiltOne) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.f, 2.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 30000; ++k) pts.emplace_back(u(rng), u(rng), k % 3 ? u(rng) : 0.f);
+  const nd::detail::KnnTree full(pts, 2);
+  for (int variant = 0; variant < 4; ++variant) {
+    std::vector<char> keep(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      keep[i] = variant == 0   ? 1
+                : variant == 1 ? i == 77
+                : variant == 2 ? 0
+                               : pts[i].z() > 0.f && u(rng) > 0.3f;  // no floor, 30 % gone
+    }
+    std::vector<Eigen::Vector3f> subset;
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      if (keep[i]) subset.push_back(pts[i]);
+    nd::detail::KnnTree restricted = full.restricted(keep), built(subset);
+    ASSERT_EQ(restricted.size(), subset.size()) << "variant " << variant;
+    EXPECT_EQ(restricted.meanNeighbourDistances(8, 2), built.meanNeighbourDistances(8));
+    for (std::size_t i = 0; i < subset.size(); i += 97) {
+      ASSERT_EQ(restricted.meanNeighbourDistance(static_cast<int>(i), 8),
+                built.meanNeighbourDistance(static_cast<int>(i), 8));
+    }
+    restricted.buildMoments();
+    built.buildMoments();
+    for (int q = 0; q < 300; ++q) {
+      const Eigen::Vector3f p(u(rng), u(rng), u(rng));
+      ASSERT_EQ(restricted.nearestDistance(p), built.nearestDistance(p));
+      ASSERT_EQ(restricted.kthNearestDistance(p, 5), built.kthNearestDistance(p, 5));
+      ASSERT_EQ(restricted.anyWithin(p, 0.02), built.anyWithin(p, 0.02));
+      std::vector<int> a, b;
+      restricted.within(p, 0.1, &a);
+      built.within(p, 0.1, &b);
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      ASSERT_EQ(a, b) << "variant " << variant << " query " << q;
+      const auto ma = restricted.momentsWithin(p, 0.1), mb = built.momentsWithin(p, 0.1);
+      ASSERT_EQ(ma.n, mb.n);
+      for (int k = 0; k < 3; ++k) {
+        // About the centre of each tree's own box: compare the first moments about 0.
+        EXPECT_NEAR(ma.s[k] + ma.n * ma.o[k], mb.s[k] + mb.n * mb.o[k], 1e-9 * (1.0 + ma.n));
+      }
+    }
+  }
+  EXPECT_THROW(full.restricted(std::vector<char>(3, 1)), std::invalid_argument);
+}
+
 // The queries from any point (the distances to the map, the k-th neighbour spacing and the
 // radius searches of segmentation) against brute force, duplicates and boundaries included.
 TEST(KnnTree, PointQueriesMatchBruteForce) {

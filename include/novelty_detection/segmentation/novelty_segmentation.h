@@ -36,6 +36,10 @@ class NearestNeighbourIndex {
   /// Indexes cloud[indices] (all points when indices is empty; non-finite points skipped),
   /// building on up to `threads` threads (the index is the same).
   void build(const Cloud& cloud, const Indices& indices = {}, int threads = 1);
+  /// The index of the points at the positions p with keep[p] != 0 (one flag per indexed
+  /// point), positions renumbered in build order: equal answers to an index built over those
+  /// points, without building one (withinIds() may list them in another order).
+  NearestNeighbourIndex restricted(const std::vector<char>& keep) const;
   bool empty() const;
   /// Distance from p to the nearest indexed point (+inf when the index is empty).
   double distance(const Eigen::Vector3f& p) const;
