@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Speed over whole suites, with the accuracy reached, on this machine:
 #  1. every scene of the 30-scene suite and the 36-scene viewpoint suite (seed 1) through
-#     novelty_detect on one thread and on two (compute/threads): per-stage medians and worst
-#     cases of report.json's timings, scene success and point F1 (evaluate);
+#     novelty_detect on one thread and on two (compute/threads), in NOVELTY_SPEED_ROUNDS
+#     rounds (3): per-stage medians and worst cases of report.json's timings (each scene's
+#     median over the rounds), scene success and point F1 (evaluate);
 #  2. whole processes, interleaved: novelty_detect (its reference model built, and read back
 #     from --reference-cache) against baseline_detect (octree change detector, 0.1 m voxels,
 #     and Euclidean clusters) on the first 10 suite scenes, 3 rounds;
@@ -12,7 +13,7 @@
 #   bash scripts/evaluate_speed.sh [--no-docs] [OUT_DIR=out/speed]
 #
 # Writes OUT_DIR/speed.md (and the runs under OUT_DIR), bench/results/speed.md and, unless
-# --no-docs, the table of docs/evaluation.md between its speed-table markers. About 6
+# --no-docs, the table of docs/evaluation.md between its speed-table markers. About 3
 # minutes on 2 cores.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -27,20 +28,32 @@ simulate_once "$OUT/scenes/suite" --suite 30 --seed 1
 simulate_once "$OUT/scenes/viewpoint" --suite 36 --suite-kind viewpoint --seed 1
 simulate_once "$OUT/scenes/large" --seed 2 --layout office --lines 278
 
-# 1. The suites, one thread and two.
+# 1. The suites, one thread and two: NOVELTY_SPEED_ROUNDS rounds (3 by default), each scene
+# on one thread then two in turn, so that the machine's drift falls on both alike; a scene's
+# stage times are the medians of its rounds (report_rN.json), its outputs the same in each.
+ROUNDS="${NOVELTY_SPEED_ROUNDS:-3}"
 for threads in 1 2; do
   printf 'compute:\n  threads: %s\n' "$threads" > "$OUT/threads_$threads.yaml"
+done
+for round in $(seq 1 "$ROUNDS"); do
+  for suite in suite viewpoint; do
+    log "$suite suite on one thread and two, round $round of $ROUNDS"
+    for scene in "$OUT/scenes/$suite"/scene_*; do
+      for threads in 1 2; do
+        dir="$OUT/threads_$threads/$suite/$(basename "$scene")"
+        mkdir -p "$dir"
+        [ "$round" = 1 ] && rm -f "$dir"/report_r*.json
+        "$BIN/novelty_detect" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" \
+          --out "$dir" --config "$OUT/threads_$threads.yaml" > /dev/null 2> "$dir/stderr.log" ||
+          log "$dir: novelty_detect failed: $(tail -n 1 "$dir/stderr.log")"
+        [ -f "$dir/report.json" ] && cp "$dir/report.json" "$dir/report_r$round.json"
+      done
+    done
+  done
+done
+for threads in 1 2; do
   for suite in suite viewpoint; do
     res="$OUT/threads_$threads/$suite"
-    mkdir -p "$res"
-    log "$suite suite on $threads thread(s)"
-    for scene in "$OUT/scenes/$suite"/scene_*; do
-      dir="$res/$(basename "$scene")"
-      mkdir -p "$dir"
-      "$BIN/novelty_detect" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" --out "$dir" \
-        --config "$OUT/threads_$threads.yaml" > /dev/null 2> "$dir/stderr.log" ||
-        log "$dir: novelty_detect failed: $(tail -n 1 "$dir/stderr.log")"
-    done
     "$BIN/evaluate" --suite "$OUT/scenes/$suite" --results "$res" --json "$res.json" \
       > /dev/null 2> "$res.evaluate.log"
   done
