@@ -186,7 +186,7 @@ void measureDistancesToMap(Detection& d) {
   const int n_fine = static_cast<int>(d.s.fine.points.size());
   std::vector<char> far(static_cast<std::size_t>(n_fine), 0);
   detail::parallelForBlocks(n_fine, kBlock, threads, [&](int c) {
-    far[c] = d.ref.points.distance(d.s.fine.points[c]) > d.tau;
+    far[c] = !d.ref.points.within(d.s.fine.points[c], d.tau);  // distance > tau, found sooner
   });
   std::vector<Eigen::Index> far_idx;
   for (int c = 0; c < n_fine; ++c)
