@@ -429,7 +429,18 @@ void fitSuperquadrics(Detection& d) {
   const MultiScaleTree::Cut& fine_cut = d.s.fine;
   const FitBoundsSource source = news > 0 ? boundsSource(d) : FitBoundsSource();
   std::vector<std::vector<Superquadric>> shapes(news + gone);
-  detail::parallelFor(static_cast<int>(news + gone), threads, [&](int job) {
+  // The largest segments first: the threads then finish together more often (each job's
+  // result does not depend on when it runs).
+  std::vector<int> order(news + gone);
+  std::vector<std::size_t> size(news + gone);
+  for (std::size_t job = 0; job < news + gone; ++job) {
+    order[job] = static_cast<int>(job);
+    size[job] = job < news ? result.segments[job].indices.size()
+                           : result.disappeared_segments[job - news].indices.size();
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return size[a] > size[b]; });
+  detail::parallelFor(static_cast<int>(news + gone), threads, [&](int k) {
+    const int job = order[static_cast<std::size_t>(k)];
     ShapeRetrieval retrieval(p);  // one per job: its fitters keep statistics
     retrieval.setThreads(threads);
     if (static_cast<std::size_t>(job) >= news) {
