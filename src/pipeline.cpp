@@ -220,8 +220,6 @@ void selectNovelGaussians(Detection& d) {
   d.timer.lap("selection");
 }
 
-/// ChoosePtfromGaussian (posterior mass of the novel Gaussians, the distance check and the
-/// visibility rule: segmentation/novelty_candidates.h), then the novel points' segments
 /// An index over cloud[pre.kept] (in that order): outlier removal's index over the distinct
 /// points restricted to the kept ones when it covers them, else built.
 NearestNeighbourIndex keptIndex(const Cloud& cloud, const PreprocessResult& pre, int threads) {
@@ -244,6 +242,8 @@ NearestNeighbourIndex keptIndex(const Cloud& cloud, const PreprocessResult& pre,
   return index;
 }
 
+/// ChoosePtfromGaussian (posterior mass of the novel Gaussians, the distance check and the
+/// visibility rule: segmentation/novelty_candidates.h), then the novel points' segments
 /// (linked pieces, merged per novel Gaussian: novelty_segmentation.h).
 void segmentCandidates(Detection& d) {
   const Cloud& current = *d.current;

@@ -180,8 +180,13 @@ bool SuperquadricBatchResidual::evaluate(double const* const* parameters, double
 
 SuperquadricOutsideResidual::SuperquadricOutsideResidual(const std::vector<Eigen::Vector3d>& q,
                                                          double weight)
-    : q_(3, static_cast<Eigen::Index>(q.size())), weight_(weight) {
+    : q_(3, static_cast<Eigen::Index>(q.size())),
+      weight_(weight),
+      box_q_(3, static_cast<Eigen::Index>(q.size())),
+      terms_(static_cast<Eigen::Index>(q.size()), static_cast<Eigen::Index>(detail::kTerms)) {
   for (std::size_t i = 0; i < q.size(); ++i) q_.col(static_cast<Eigen::Index>(i)) = q[i];
+  inside_box_.reserve(q.size());
+  for (int b = 0; b < 4; ++b) rows_[b].resize(q.size() * detail::kBlockSizes[b]);
   set_num_residuals(static_cast<int>(q.size()));
   *mutable_parameter_block_sizes() = {3, 2, 3, 3};
 }
@@ -210,13 +215,12 @@ bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, doub
   }
   const Eigen::Index m = static_cast<Eigen::Index>(inside_box_.size());
   if (m == 0) return true;
-  box_q_.resize(3, m);
+  // Their coordinates and terms in the first m columns and rows of the scratch (sized for
+  // all points: n is its leading dimension).
   for (Eigen::Index j = 0; j < m; ++j) box_q_.col(j) = q_.col(inside_box_[j]);
-  terms_.resize(m, detail::kTerms);
   detail::JacobianOut out;
   if (jacobians) {
     for (int b = 0; b < 4; ++b) {
-      rows_[b].resize(static_cast<std::size_t>(m) * kBlockSizes[b]);
       out.block[b] = jacobians[b] ? rows_[b].data() : nullptr;
       out.row_stride[b] = kBlockSizes[b];
       out.col_stride[b] = 1;
@@ -224,9 +228,9 @@ bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, doub
   }
   for (Eigen::Index begin = 0; begin < m; begin += detail::kKernelChunk) {
     const Eigen::Index len = std::min(detail::kKernelChunk, m - begin);
-    detail::superquadricTerms(parameters, box_q_.data(), terms_.data(), m, begin, len);
+    detail::superquadricTerms(parameters, box_q_.data(), terms_.data(), n, begin, len);
     if (jacobians)
-      detail::superquadricJacobian(parameters, terms_.data(), m, begin, len, advanced(out, begin));
+      detail::superquadricJacobian(parameters, terms_.data(), n, begin, len, advanced(out, begin));
   }
   for (Eigen::Index j = 0; j < m; ++j) {
     const int i = inside_box_[j];
