@@ -9,7 +9,7 @@ PACKAGES=(
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   liblemon-dev liboctomap-dev libgtest-dev libbenchmark-dev libyaml-cpp-dev nlohmann-json3-dev
-  python3-rostest python3-roslaunch python3-rosbag python3-rosmaster python3-nodelet
+  python3-rostest python3-roslaunch python3-rosbag python3-rosmaster python3-nodelet python3-rostopic
   rosbash rosout librostest-dev python3-sensor-msgs python3-geometry-msgs
   python3-visualization-msgs python3-std-srvs
 )

@@ -6,6 +6,7 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <exception>
 
 #include "novelty_detection/ros/conversions.h"
@@ -38,12 +39,13 @@ void TiltScanAssemblerNodelet::onInit() {
   pnh.param("min_tilt_step_rad", min_tilt_step_rad_, min_tilt_step_rad_);
   pnh.param("min_lines", min_lines_, min_lines_);
   pnh.param("idle_timeout", idle_timeout_, idle_timeout_);
+  pnh.param("queue_size", queue_size_, queue_size_);
   if (fixed_frame_.empty() || !(max_sweep_duration_ > 0.0) || min_lines_ < 1 ||
-      !(min_tilt_step_rad_ >= 0.0) || !(idle_timeout_ > 0.0)) {
+      !(min_tilt_step_rad_ >= 0.0) || !(idle_timeout_ > 0.0) || queue_size_ < 1) {
     NODELET_FATAL(
         "tilt scan assembler refuses to start: need a non-empty ~fixed_frame, "
-        "~max_sweep_duration > 0, ~min_lines >= 1, ~min_tilt_step_rad >= 0 and "
-        "~idle_timeout > 0");
+        "~max_sweep_duration > 0, ~min_lines >= 1, ~min_tilt_step_rad >= 0, "
+        "~idle_timeout > 0 and ~queue_size >= 1");
     return;
   }
   if (tilt_parent_frame_.empty()) tilt_parent_frame_ = fixed_frame_;
@@ -52,7 +54,7 @@ void TiltScanAssemblerNodelet::onInit() {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
   sweep_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("sweep", 2);
   tf_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
-      *tf_buffer_, fixed_frame_, 50, nh);
+      *tf_buffer_, fixed_frame_, static_cast<std::uint32_t>(queue_size_), nh);
   tf_filter_->registerCallback(&TiltScanAssemblerNodelet::onScan, this);
   tf_filter_->registerFailureCallback([this](const sensor_msgs::LaserScan::ConstPtr& scan,
                                              tf2_ros::filter_failure_reasons::FilterFailureReason) {
@@ -62,11 +64,16 @@ void TiltScanAssemblerNodelet::onInit() {
                           scan->header.frame_id.c_str(), fixed_frame_.c_str());
   });
   scan_sub_ = pnh.subscribe<sensor_msgs::LaserScan>(
-      "scan", 50, [this](const sensor_msgs::LaserScan::ConstPtr& scan) { tf_filter_->add(scan); });
+      "scan", static_cast<std::uint32_t>(queue_size_),
+      [this](const sensor_msgs::LaserScan::ConstPtr& scan) { tf_filter_->add(scan); });
   idle_timer_ =
       pnh.createWallTimer(ros::WallDuration(idle_timeout_ / 4), [this](const ros::WallTimerEvent&) {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (lines_ > 0 && (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
+        // Fewer than ~min_lines lines are kept through a pause (a stalled process or player
+        // whose next lines are still to come would otherwise lose the head of a sweep); the
+        // stamps close them if the lines resume much later.
+        if (lines_ >= min_lines_ &&
+            (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
           publishSweep();
           have_pitch_ = false;
           direction_ = 0;

@@ -27,11 +27,16 @@ inline ProcessRun run(const std::string& cmd) {
   return r;
 }
 
-/// `roslaunch novelty_detection FILE ARGS` on a master of its own (a port of this process,
-/// shifted by `port_shift`), so that tests running at the same time do not share one.
+/// The port of this process's own master (shifted by `port_shift`), so that tests running
+/// at the same time do not share one.
+inline std::string masterPort(int port_shift) {
+  return std::to_string(20000 + (::getpid() + port_shift) % 20000);
+}
+
+/// `roslaunch novelty_detection FILE ARGS` on a master of its own (masterPort()).
 inline std::string roslaunch(const std::string& file, const std::string& args, int port_shift,
                              int timeout_s) {
-  const std::string port = std::to_string(20000 + (::getpid() + port_shift) % 20000);
+  const std::string port = masterPort(port_shift);
   return "ROS_MASTER_URI=http://localhost:" + port + " timeout " + std::to_string(timeout_s) +
          " roslaunch -p " + port + " novelty_detection " + file + " " + args;
 }

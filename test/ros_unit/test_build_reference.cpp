@@ -139,9 +139,11 @@ TEST_F(BuildReference, RouteBagToReferenceDirectoryToDetection) {
   // No false segment (mostly off the changes) over 1 % of the sweep: the suite's bar (a patch
   // of floor seen densely from the current pose and only along sparse lines from the route's
   // poses may stay below it).
-  for (const auto& [id, counts] : segments)
-    if (2 * counts.second <= counts.first)
+  for (const auto& [id, counts] : segments) {
+    if (2 * counts.second <= counts.first) {
       EXPECT_LT(counts.first, 0.01 * gt.size()) << "false segment " << id;
+    }
+  }
   std::ifstream in(dir_ / "route_out" / "report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   EXPECT_TRUE(report["visibility_checked"].get<bool>());
@@ -163,24 +165,76 @@ TEST_F(BuildReference, AFailedSaveIsFatal) {
   EXPECT_FALSE(fs::exists(dir_ / "r2"));
 }
 
+namespace {
+
+/// build_reference.launch with the tilt scan assembler, and `play` (rosbag play commands)
+/// run only once the nodes listen: the assembler to the lines and to /tf, the saver to the
+/// sweeps (`rostopic info`); no fixed delay guarantees it on a loaded machine. The launch's
+/// output, then "listening: 1".
+std::string assembleOnceListening(const std::string& play, const fs::path& out,
+                                  const fs::path& log) {
+  const std::string port = process_run::masterPort(0);
+  const std::string listens =
+      "rostopic info /scan 2>/dev/null | grep -q tilt_scan_assembler && "
+      "rostopic info /tf 2>/dev/null | grep -q tilt_scan_assembler && "
+      "rostopic info /assembled_sweep 2>/dev/null | grep -q build_reference";
+  return "export ROS_MASTER_URI=http://localhost:" + port + "; timeout 240 roslaunch -p " + port +
+         " novelty_detection build_reference.launch play:=false assemble_scans:=true" +
+         " sensor_frame:=laser output:=" + out.string() + " > " + log.string() +
+         " 2>&1 & launch=$!; listening=0; for i in $(seq 1 240); do if " + listens +
+         "; then listening=1; break; fi; sleep 0.5; done; " + play + "; wait $launch; cat " +
+         log.string() + "; echo listening: $listening";
+}
+
+/// rosbag play of `bag` with its clock, `args` added.
+std::string playBag(const fs::path& bag, const std::string& args) {
+  return "timeout 120 rosbag play --clock -q -d 2 " + args + " " + bag.string();
+}
+
+/// The points of each of the first `sweeps` sweeps of the reference directory `dir`.
+std::vector<std::size_t> sweepSizes(const fs::path& dir, std::size_t sweeps) {
+  const ReferenceMap map = loadReference(dir.string());
+  std::vector<std::size_t> sizes(sweeps, 0);
+  for (std::uint32_t k : map.views.sweep)
+    if (k < sweeps) ++sizes[k];
+  return sizes;
+}
+
+}  // namespace
+
 TEST_F(BuildReference, TheAssemblerKeepsEveryLineAtAnyPlaybackRate) {
   // The bag's two sweeps rebuilt from its LaserScan lines and tf (a sawtooth tilt: each
   // sweep starts again at the lowest line) hold every return of the simulator's sweeps.
-  // The long delay lets the assembler subscribe before the first line even on a loaded
-  // machine (a line it missed there would be the test's fault, not the assembler's).
   const std::size_t ref_points = loadCloud((dir_ / "scene" / "ref.pcd").string()).size();
   const std::size_t cur_points = loadCloud((dir_ / "scene" / "cur.pcd").string()).size();
+  const fs::path bag = dir_ / "scene" / "scans.bag";
   for (const char* rate : {"0.2", "1", "5"}) {
     const fs::path out = dir_ / (std::string("assembled_") + rate);
     const ProcessRun launch =
-        run(roslaunch("bag:=" + (dir_ / "scene" / "scans.bag").string() +
-                      " assemble_scans:=true sensor_frame:=laser delay:=8 rate:=" + rate +
-                      " output:=" + out.string()));
+        run(assembleOnceListening(playBag(bag, std::string("-r ") + rate), out,
+                                  dir_ / (std::string("launch_") + rate + ".log")));
+    ASSERT_NE(launch.out.find("listening: 1"), std::string::npos) << rate << "\n" << launch.out;
     ASSERT_NE(launch.out.find("saved 2 sweeps"), std::string::npos) << rate << "\n" << launch.out;
-    const ReferenceMap map = loadReference(out.string());
-    std::vector<std::size_t> sizes(2, 0);
-    for (std::uint32_t k : map.views.sweep) ++sizes[k];
+    const std::vector<std::size_t> sizes = sweepSizes(out, 2);
     EXPECT_EQ(sizes[0], ref_points) << "rate " << rate;
     EXPECT_EQ(sizes[1], cur_points) << "rate " << rate;
   }
+}
+
+TEST_F(BuildReference, TheAssemblerKeepsTheLinesBeforeAPause) {
+  // The first line (and its transform), then two seconds of nothing, then the rest: a pause
+  // longer than the idle timeout right after a sweep's first line (a stalled player, or a
+  // loaded machine), which lost that line when the idle timer closed the one-line sweep.
+  const std::size_t ref_points = loadCloud((dir_ / "scene" / "ref.pcd").string()).size();
+  const std::size_t cur_points = loadCloud((dir_ / "scene" / "cur.pcd").string()).size();
+  const fs::path bag = dir_ / "scene" / "scans.bag";
+  const fs::path out = dir_ / "assembled_pause";
+  const ProcessRun launch =
+      run(assembleOnceListening(playBag(bag, "-u 0.01") + "; sleep 2; " + playBag(bag, "-s 0.01"),
+                                out, dir_ / "launch_pause.log"));
+  ASSERT_NE(launch.out.find("listening: 1"), std::string::npos) << launch.out;
+  ASSERT_NE(launch.out.find("saved 2 sweeps"), std::string::npos) << launch.out;
+  const std::vector<std::size_t> sizes = sweepSizes(out, 2);
+  EXPECT_EQ(sizes[0], ref_points);
+  EXPECT_EQ(sizes[1], cur_points);
 }

@@ -21,9 +21,11 @@ namespace novelty_detection {
 /// ~sweep (PointCloud2, fixed frame) when the tilt direction reverses (the pitch of the
 /// laser frame relative to ~tilt_parent_frame changes sign of motion) or when the sweep
 /// lasts longer than ~max_sweep_duration seconds, or when no line arrived for ~idle_timeout
-/// wall seconds (the laser stopped, or a bag ended). A step of the tilt several times the
+/// wall seconds (the laser stopped, or a bag ended) and it holds at least ~min_lines lines
+/// (fewer wait for the lines after a pause). A step of the tilt several times the
 /// sweep's typical step is a fly-back (a sawtooth tilt returning to its start): it closes
 /// the sweep and the next sweep's direction is learnt afresh, so its first line is kept.
+/// Up to ~queue_size lines wait for the callbacks or their transforms.
 class TiltScanAssemblerNodelet : public nodelet::Nodelet {
  public:
   TiltScanAssemblerNodelet();
@@ -40,6 +42,9 @@ class TiltScanAssemblerNodelet : public nodelet::Nodelet {
   double min_tilt_step_rad_ = 1e-4;   // pitch changes below this are no motion
   int min_lines_ = 5;                 // shorter sweeps are not published
   double idle_timeout_ = 1.0;         // [s, wall] close the sweep when lines stop coming
+  // Lines held while the callbacks are busy or their transforms are not in yet: a full
+  // subscriber queue drops the oldest line without a word (about 25 s of a 40 Hz laser).
+  int queue_size_ = 1000;
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
