@@ -11,6 +11,14 @@
 namespace novelty_detection {
 namespace detail {
 
+/// The canonical point p = Exp(w)^T (q - t) = d - sa (w x d) + sb w x (w x d), d = q - t.
+inline Eigen::Vector3d canonicalPoint(const RotationTerms& rt, const Eigen::Vector3d& q,
+                                      const double* t) {
+  const Eigen::Vector3d d(q.x() - t[0], q.y() - t[1], q.z() - t[2]);
+  const Eigen::Vector3d wxd = rt.w.cross(d);
+  return d - rt.sa * wxd + rt.sb * rt.w.cross(wxd);
+}
+
 /// p = Exp(w)^T (q - t) the canonical point, dr_dp the residual's gradient there; fills
 /// jw[3] = dr/dw and jt[3] = dr/dt when not null.
 inline void poseJacobian(const RotationTerms& rt, const Eigen::Vector3d& p,

@@ -204,12 +204,9 @@ bool SuperquadricOutsideResidual::Evaluate(double const* const* parameters, doub
   const RotationTerms rt = rotationTerms(parameters[2]);
   const double* a = parameters[0];
   const double* t = parameters[3];
-  const Eigen::Vector3d& w = rt.w;
   inside_box_.clear();
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d d = q_.col(i) - Eigen::Vector3d(t[0], t[1], t[2]);
-    const Eigen::Vector3d wxd = w.cross(d);
-    const Eigen::Vector3d p = d - rt.sa * wxd + rt.sb * w.cross(wxd);
+    const Eigen::Vector3d p = detail::canonicalPoint(rt, q_.col(i), t);
     if (std::abs(p.x()) < a[0] && std::abs(p.y()) < a[1] && std::abs(p.z()) < a[2])
       inside_box_.push_back(static_cast<int>(i));
   }

@@ -27,10 +27,7 @@ using detail::rotationTerms;
 double surfacePointResidual(const Eigen::Vector3d& q, const double* a, double e1, double e2,
                             const double* t, const RotationTerms& rt, double* ja, double* je,
                             double* jw, double* jt) {
-  const Eigen::Vector3d& w = rt.w;
-  const Eigen::Vector3d d(q.x() - t[0], q.y() - t[1], q.z() - t[2]);
-  const Eigen::Vector3d wxd = w.cross(d);
-  const Eigen::Vector3d p = d - rt.sa * wxd + rt.sb * w.cross(wxd);
+  const Eigen::Vector3d p = detail::canonicalPoint(rt, q, t);
   const double x = p.x(), y = p.y(), z = p.z();
   const double bx = x * x + kSqTinySquared * a[0] * a[0];
   const double by = y * y + kSqTinySquared * a[1] * a[1];

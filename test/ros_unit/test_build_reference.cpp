@@ -173,17 +173,15 @@ namespace {
 /// output, then "listening: 1".
 std::string assembleOnceListening(const std::string& play, const fs::path& out,
                                   const fs::path& log) {
-  const std::string port = process_run::masterPort(0);
   const std::string listens =
       "rostopic info /scan 2>/dev/null | grep -q tilt_scan_assembler && "
       "rostopic info /tf 2>/dev/null | grep -q tilt_scan_assembler && "
       "rostopic info /assembled_sweep 2>/dev/null | grep -q build_reference";
-  return "export ROS_MASTER_URI=http://localhost:" + port + "; timeout 240 roslaunch -p " + port +
-         " novelty_detection build_reference.launch play:=false assemble_scans:=true" +
-         " sensor_frame:=laser output:=" + out.string() + " > " + log.string() +
-         " 2>&1 & launch=$!; listening=0; for i in $(seq 1 240); do if " + listens +
-         "; then listening=1; break; fi; sleep 0.5; done; " + play + "; wait $launch; cat " +
-         log.string() + "; echo listening: $listening";
+  return "export ROS_MASTER_URI=http://localhost:" + process_run::masterPort(0) + "; " +
+         roslaunch("play:=false assemble_scans:=true sensor_frame:=laser output:=" + out.string()) +
+         " > " + log.string() + " 2>&1 & launch=$!; listening=0; for i in $(seq 1 240); do if " +
+         listens + "; then listening=1; break; fi; sleep 0.5; done; " + play +
+         "; wait $launch; cat " + log.string() + "; echo listening: $listening";
 }
 
 /// rosbag play of `bag` with its clock, `args` added.
