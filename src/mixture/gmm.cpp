@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -46,36 +47,37 @@ Eigen::VectorXd weightVector(const WeightedPoints& data) {
 /// under the rounding of a sum that holds 1, even with a thousand such terms.
 constexpr double kNegligibleLogRatio = -50.0;
 
-/// In place: each column of log-values a (K x N) becomes its softmax; lse[n] receives the
-/// column's log-sum-exp. A point is near a few of the K Gaussians: only the entries within
-/// kNegligibleLogRatio of the column's largest cost an exp (the hot loop of EM), the rest
-/// are exactly 0. A column of -inf (every weight zero) becomes uniform with lse -inf.
-/// Columns are independent: blocks of them run on up to `threads` threads.
+/// In place: a column of K log-values becomes its softmax; returns its log-sum-exp. A point
+/// is near a few of the K Gaussians: only the entries within kNegligibleLogRatio of the
+/// column's largest cost an exp (the hot loop of EM), the rest are exactly 0. A column of
+/// -inf (every weight zero) becomes uniform with lse -inf.
+double softmaxColumn(double* col, Eigen::Index rows) {
+  double m = -std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 0; k < rows; ++k) m = std::max(m, col[k]);
+  if (!std::isfinite(m)) {
+    std::fill(col, col + rows, 1.0 / static_cast<double>(std::max<Eigen::Index>(1, rows)));
+    return m;
+  }
+  double sum = 0.0;
+  for (Eigen::Index k = 0; k < rows; ++k) {
+    const double v = col[k] - m;
+    col[k] = v < kNegligibleLogRatio ? 0.0 : std::exp(v);
+    sum += col[k];
+  }
+  const double inv = 1.0 / sum;
+  for (Eigen::Index k = 0; k < rows; ++k) col[k] *= inv;
+  return m + std::log(sum);
+}
+
+/// softmaxColumn() on each column of a (K x N), lse[n] receiving column n's. Columns are
+/// independent: blocks of them run on up to `threads` threads.
 void softmaxCols(Eigen::MatrixXd& a, Eigen::VectorXd& lse, int threads) {
   lse.resize(a.cols());
   const Eigen::Index rows = a.rows();
-  const double uniform = 1.0 / static_cast<double>(std::max<Eigen::Index>(1, rows));
   detail::parallelFor(pointBlocks(a.cols()), stepThreads(a.cols(), threads), [&](int b) {
     const Eigen::Index end = std::min(a.cols(), (b + 1) * kPointBlock);
-    for (Eigen::Index n = b * kPointBlock; n < end; ++n) {
-      double* col = a.col(n).data();
-      double m = -std::numeric_limits<double>::infinity();
-      for (Eigen::Index k = 0; k < rows; ++k) m = std::max(m, col[k]);
-      if (!std::isfinite(m)) {
-        lse[n] = m;
-        std::fill(col, col + rows, uniform);
-        continue;
-      }
-      double sum = 0.0;
-      for (Eigen::Index k = 0; k < rows; ++k) {
-        const double v = col[k] - m;
-        col[k] = v < kNegligibleLogRatio ? 0.0 : std::exp(v);
-        sum += col[k];
-      }
-      const double inv = 1.0 / sum;
-      for (Eigen::Index k = 0; k < rows; ++k) col[k] *= inv;
-      lse[n] = m + std::log(sum);
-    }
+    for (Eigen::Index n = b * kPointBlock; n < end; ++n)
+      lse[n] = softmaxColumn(a.col(n).data(), rows);
   });
 }
 
@@ -113,13 +115,17 @@ double WeightedPoints::totalWeight() const {
   return weights.size() ? weights.sum() : static_cast<double>(points.cols());
 }
 
-Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads) {
+namespace {
+
+/// Per Gaussian, in arrays over the Gaussians: the Cholesky factor L of its covariance as
+/// forward substitution uses it (the diagonal as reciprocals), its mean, and log(pi) -
+/// log|2 pi Sigma| / 2.
+enum { kR00, kL10, kR11, kL20, kL21, kR22, kMx, kMy, kMz, kOffset, kFields };
+using PackedGaussians = Eigen::Matrix<double, Eigen::Dynamic, kFields>;
+
+PackedGaussians pack(const Gmm& gmm) {
   const Eigen::Index k_count = static_cast<Eigen::Index>(gmm.size());
-  // Per Gaussian, in arrays over the Gaussians: the Cholesky factor L of its covariance as
-  // forward substitution uses it (the diagonal as reciprocals), its mean, and log(pi) -
-  // log|2 pi Sigma| / 2.
-  enum { kR00, kL10, kR11, kL20, kL21, kR22, kMx, kMy, kMz, kOffset, kFields };
-  Eigen::Matrix<double, Eigen::Dynamic, kFields> g(k_count, static_cast<int>(kFields));
+  PackedGaussians g(k_count, static_cast<int>(kFields));
   for (Eigen::Index k = 0; k < k_count; ++k) {
     const Gaussian& c = gmm.components[k];
     Eigen::LLT<Eigen::Matrix3d> llt(c.cov);
@@ -136,25 +142,49 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
         (c.weight > 0 ? std::log(c.weight) : -std::numeric_limits<double>::infinity()) -
             0.5 * (3.0 * kLog2Pi + log_det);
   }
-  Eigen::MatrixXd out(k_count, points.cols());
+  return g;
+}
+
+/// The K log weighted densities of the point (px, py, pz) into `column`: y = L^-1 (p - mean)
+/// by forward substitution (the operations of Eigen's triangular solve, in its order, so the
+/// values are the same), then the log density; all Gaussians of one point at a time, so the
+/// column is written contiguously.
+void logDensitiesAt(const PackedGaussians& g, double px, double py, double pz, double* column) {
+  for (Eigen::Index k = 0; k < g.rows(); ++k) {
+    const double dx = px - g(k, kMx), dy = py - g(k, kMy), dz = pz - g(k, kMz);
+    const double y0 = dx * g(k, kR00);
+    const double y1 = (dy - g(k, kL10) * y0) * g(k, kR11);
+    const double y2 = (dz - g(k, kL20) * y0 - g(k, kL21) * y1) * g(k, kR22);
+    column[k] = g(k, kOffset) - 0.5 * (y0 * y0 + y1 * y1 + y2 * y2);
+  }
+}
+
+}  // namespace
+
+Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads) {
+  const PackedGaussians g = pack(gmm);
+  Eigen::MatrixXd out(g.rows(), points.cols());
   detail::parallelFor(pointBlocks(points.cols()), stepThreads(points.cols(), threads), [&](int b) {
     const Eigen::Index end = std::min(points.cols(), (b + 1) * kPointBlock);
-    for (Eigen::Index i = b * kPointBlock; i < end; ++i) {
-      const double px = points(0, i), py = points(1, i), pz = points(2, i);
-      double* column = out.col(i).data();
-      // y = L^-1 (p - mean) by forward substitution (the operations of Eigen's triangular
-      // solve, in its order, so the values are the same), then the log density; all
-      // Gaussians of one point at a time, so each column is written contiguously.
-      for (Eigen::Index k = 0; k < k_count; ++k) {
-        const double dx = px - g(k, kMx), dy = py - g(k, kMy), dz = pz - g(k, kMz);
-        const double y0 = dx * g(k, kR00);
-        const double y1 = (dy - g(k, kL10) * y0) * g(k, kR11);
-        const double y2 = (dz - g(k, kL20) * y0 - g(k, kL21) * y1) * g(k, kR22);
-        column[k] = g(k, kOffset) - 0.5 * (y0 * y0 + y1 * y1 + y2 * y2);
-      }
-    }
+    for (Eigen::Index i = b * kPointBlock; i < end; ++i)
+      logDensitiesAt(g, points(0, i), points(1, i), points(2, i), out.col(i).data());
   });
   return out;
+}
+
+void forEachResponsibility(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads,
+                           const std::function<void(Eigen::Index, const double*, double)>& visit) {
+  const PackedGaussians g = pack(gmm);
+  const Eigen::Index rows = g.rows();
+  detail::parallelFor(pointBlocks(points.cols()), stepThreads(points.cols(), threads), [&](int b) {
+    std::vector<double> column(static_cast<std::size_t>(rows));
+    const Eigen::Index end = std::min(points.cols(), (b + 1) * kPointBlock);
+    for (Eigen::Index i = b * kPointBlock; i < end; ++i) {
+      logDensitiesAt(g, points(0, i), points(1, i), points(2, i), column.data());
+      const double lse = softmaxColumn(column.data(), rows);
+      visit(i, column.data(), lse);
+    }
+  });
 }
 
 Eigen::MatrixXd responsibilities(const Gmm& gmm, const Eigen::Matrix3Xd& points,

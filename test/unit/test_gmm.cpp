@@ -3,6 +3,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <random>
@@ -236,4 +237,38 @@ TEST(Gmm, EStepIsTheSameOnAnyNumberOfThreads) {
   const Gmm wa = one.fitWeights(data, truth), wb = three.fitWeights(data, truth);
   for (std::size_t k = 0; k < wa.size(); ++k)
     EXPECT_EQ(wa.components[k].weight, wb.components[k].weight);
+}
+
+// Point by point, without the K x N matrix: each point's responsibilities and
+// log-likelihood are responsibilities()'s column, bit for bit, on any number of threads,
+// every point visited once.
+TEST(Gmm, ResponsibilitiesPointByPointAreTheMatrixColumns) {
+  Gmm g = truthMixture();
+  Gaussian far;  // a Gaussian whose responsibilities are exactly 0 for every sample
+  far.weight = 0.1;
+  far.mean = Eigen::Vector3d(40, 0, 0);
+  far.cov = 0.01 * Eigen::Matrix3d::Identity();
+  g.components.push_back(far);
+  const WeightedPoints data = sampleMixture(truthMixture(), 5000, 23);  // five blocks
+  Eigen::VectorXd ll;
+  const Eigen::MatrixXd r = responsibilities(g, data.points, &ll, 1);
+  for (int threads : {1, 2, 3}) {
+    Eigen::MatrixXd seen = Eigen::MatrixXd::Constant(r.rows(), r.cols(), -1.0);
+    Eigen::VectorXd seen_ll = Eigen::VectorXd::Constant(ll.size(), 1.0);
+    std::vector<int> visits(static_cast<std::size_t>(r.cols()), 0);
+    forEachResponsibility(g, data.points, threads,
+                          [&](Eigen::Index n, const double* column, double lse) {
+                            seen.col(n) = Eigen::Map<const Eigen::VectorXd>(column, r.rows());
+                            seen_ll[n] = lse;
+                            ++visits[static_cast<std::size_t>(n)];
+                          });
+    EXPECT_TRUE(seen == r) << threads << " threads";
+    EXPECT_TRUE(seen_ll == ll) << threads << " threads";
+    EXPECT_EQ(std::count(visits.begin(), visits.end(), 1), r.cols()) << threads << " threads";
+    EXPECT_EQ(seen.row(g.size() - 1).maxCoeff(), 0.0);
+  }
+  int calls = 0;  // no points, no calls
+  forEachResponsibility(g, Eigen::Matrix3Xd(3, 0), 2,
+                        [&calls](Eigen::Index, const double*, double) { ++calls; });
+  EXPECT_EQ(calls, 0);
 }

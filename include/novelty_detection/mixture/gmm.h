@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -86,5 +87,11 @@ Eigen::MatrixXd logWeightedDensities(const Gmm& gmm, const Eigen::Matrix3Xd& poi
 /// `log_likelihood` (optional) receives log p(x_n) per point. Threads as above.
 Eigen::MatrixXd responsibilities(const Gmm& gmm, const Eigen::Matrix3Xd& points,
                                  Eigen::VectorXd* log_likelihood = nullptr, int threads = 1);
+
+/// responsibilities() point by point, without the K x N matrix: visit(n, r, lse) receives
+/// point n's K responsibilities (the values of column n) and its log p(x_n). Blocks of points
+/// run on up to `threads` threads: `visit` may be called concurrently (for distinct n).
+void forEachResponsibility(const Gmm& gmm, const Eigen::Matrix3Xd& points, int threads,
+                           const std::function<void(Eigen::Index, const double*, double)>& visit);
 
 }  // namespace novelty_detection
