@@ -78,12 +78,17 @@ json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
   return list;
 }
 
-json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
-                double detect_ms, const Assumptions& as) {
-  const bool checked_disappearances = as.disappearances_checked;
+json timingsJson(const nd::Result& r, double detect_ms) {
   json timings = json::object();
   for (const auto& t : r.timings) timings[t.stage] = t.ms;
   timings["detect_total"] = detect_ms;
+  return timings;
+}
+
+json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double reference_ms,
+                double detect_ms, const Assumptions& as) {
+  const bool checked_disappearances = as.disappearances_checked;
+  json timings = timingsJson(r, detect_ms);
   timings["reference_model"] = reference_ms;
   json counts = json::object();
   for (const auto& [stage, n] : r.point_counts) counts[stage] = n;

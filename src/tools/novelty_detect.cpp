@@ -45,7 +45,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: novelty_detect --reference REF.pcd|.ply|REF_DIR --current CUR.pcd|.ply --out DIR "
     "[--config FILE.yaml] [--reference-origin X Y Z] [--current-origin X Y Z] "
-    "[--sensor-frame] [--up X Y Z | --up auto] [--reference-cache DIR]";
+    "[--sensor-frame] [--up X Y Z | --up auto] [--reference-cache DIR] [--repeat N]";
 
 constexpr const char* kHelp = R"(Compares a current cloud with a reference map and writes, into DIR:
 labels.txt, superquadrics.json, report.json, segments.pcd, newly_visible.txt,
@@ -71,6 +71,11 @@ disappeared_labels.txt and disappeared_superquadrics.json.
                            the next run with the same map and settings: the model is built
                            once per map (report.json: reference_cache). Default: off for a
                            file, REF_DIR/.model_cache for a directory; "off" disables it.
+  --repeat N               detect the sweep N times (1-1000) in this process: the outputs and
+                           report.json's timings_ms are the last detection's, as a running
+                           node detects sweep after sweep; report.json's repeated gives the
+                           first detection's stage times (a fresh process touching its memory
+                           for the first time) and every detection's total. Default 1.
 The visibility rules and disappearances need each cloud's sensor origin; without one they
 are off, and stderr and report.json (sensor_origins, visibility_checked) say so.
 DIR/complete, written last, lists the files of the set: without it a run was interrupted.
@@ -86,6 +91,7 @@ struct Args {
   std::optional<Eigen::Vector3f> reference_origin, current_origin;
   bool sensor_frame = false;
   bool help = false;
+  int repeat = 1;
 };
 
 Eigen::Vector3f parseVector(const std::string& flag, char** values) {
@@ -115,6 +121,17 @@ Args parseArgs(int argc, char** argv) {
     }
     if (key == "--sensor-frame") {
       a.sensor_frame = true;
+      continue;
+    }
+    if (key == "--repeat") {
+      if (i + 1 >= argc) throw std::invalid_argument("--repeat needs a count");
+      const std::string v = argv[++i];
+      char* end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < 1 || n > 1000)
+        throw std::invalid_argument("--repeat needs a whole number from 1 to 1000, got '" + v +
+                                    "'");
+      a.repeat = static_cast<int>(n);
       continue;
     }
     if (key == "--reference-origin" || key == "--current-origin") {
@@ -214,21 +231,41 @@ int run(const Args& args) {
     if (!as.cache.message.empty()) std::cerr << "novelty_detect: " << as.cache.message << "\n";
   }
   auto t1 = Clock::now();
-  nd::Result result;
-  try {
-    result = pipeline.detect(current);
-  } catch (const nd::NoOverlapError& e) {
-    // Not "no change": the set holds only a report saying why nothing was compared.
-    out.writeText(
-        "report.json",
-        json({{"overlap", e.overlap()}, {"compared", false}, {"error", e.what()}}).dump(2) + "\n");
-    out.commit();
-    std::cerr << "novelty_detect: " << e.what() << "\n";
-    return kExitNoOverlap;
-  }
-  auto t2 = Clock::now();
   const double ref_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  const double det_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
+  // --repeat: the same sweep again in this process; what is written is the last detection's.
+  nd::Result result;
+  std::vector<double> runs_ms;
+  json first_timings;
+  bool identical = true;
+  std::vector<int> first_labels, first_gone;
+  for (int run = 0; run < args.repeat; ++run) {
+    t1 = Clock::now();
+    try {
+      result = pipeline.detect(current);
+    } catch (const nd::NoOverlapError& e) {
+      // Not "no change": the set holds only a report saying why nothing was compared.
+      out.writeText(
+          "report.json",
+          json({{"overlap", e.overlap()}, {"compared", false}, {"error", e.what()}}).dump(2) +
+              "\n");
+      out.commit();
+      std::cerr << "novelty_detect: " << e.what() << "\n";
+      return kExitNoOverlap;
+    }
+    runs_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t1).count());
+    if (run == 0) {
+      first_timings = nd::cli::timingsJson(result, runs_ms.front());
+      first_labels = result.labels;
+      first_gone = result.disappeared_labels;
+    } else {
+      identical =
+          identical && result.labels == first_labels && result.disappeared_labels == first_gone;
+    }
+  }
+  if (!identical)
+    std::cerr << "novelty_detect: the repeated detections of the sweep differ; the last one is "
+                 "written\n";
+  const double det_ms = runs_ms.back();
 
   std::string labels;
   labels.reserve(result.labels.size() * 2);
@@ -260,8 +297,14 @@ int run(const Args& args) {
                                               : "no floor plane found: +z assumed")
               << "\n";
   for (const std::string& w : result.warnings) std::cerr << "novelty_detect: " << w << "\n";
-  out.writeText("report.json",
-                nd::cli::reportJson(result, pipeline, ref_ms, det_ms, as).dump(2) + "\n");
+  json report = nd::cli::reportJson(result, pipeline, ref_ms, det_ms, as);
+  if (args.repeat > 1) {
+    report["repeated"] = {{"detections", args.repeat},
+                          {"first_timings_ms", first_timings},
+                          {"detect_total_ms", runs_ms},
+                          {"labels_identical", identical}};
+  }
+  out.writeText("report.json", report.dump(2) + "\n");
 
   // In the map frame, like segments and superquadrics, when the fine alignment moved the sweep.
   const nd::Cloud shown =

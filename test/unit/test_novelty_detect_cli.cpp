@@ -396,3 +396,53 @@ TEST(NoveltyDetectCli, ReferenceCache) {
   EXPECT_EQ(runCli(args, dir).code >> 8, 2);  // --out without its value
   fs::remove_all(dir);
 }
+
+// --repeat N detects the sweep N times in one process: the files are those of one detection,
+// report.json's timings are the last detection's and `repeated` holds the first's stage times
+// and every total; a count that is not a whole number from 1 to 1000 is a bad argument.
+TEST(NoveltyDetectCli, RepeatDetectsInOneProcess) {
+  const fs::path dir = tempDir("repeat");
+  sim::SceneConfig c;
+  c.seed = 4;
+  c.novelty_kinds = {sim::NoveltyKind::kCylinder};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
+  const std::string args = "--reference " + (dir / "ref.pcd").string() + " --current " +
+                           (dir / "cur.pcd").string() + " --out ";
+  auto file = [&](const std::string& run, const char* name) {
+    std::ifstream in(dir / run / name);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  ASSERT_EQ(runCli(args + (dir / "once").string(), dir).code, 0);
+  const CliRun r = runCli(args + (dir / "thrice").string() + " --repeat 3", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* name : {"labels.txt", "superquadrics.json", "disappeared_labels.txt"})
+    EXPECT_EQ(file("once", name), file("thrice", name)) << name;
+  EXPECT_NE(file("once", "labels.txt").find('1'), std::string::npos);  // something found
+  std::ifstream in(dir / "thrice" / "report.json");
+  const auto report = nlohmann::json::parse(in);
+  ASSERT_TRUE(report.contains("repeated"));
+  const auto& repeated = report["repeated"];
+  EXPECT_EQ(repeated["detections"].get<int>(), 3);
+  EXPECT_TRUE(repeated["labels_identical"].get<bool>());
+  const auto totals = repeated["detect_total_ms"].get<std::vector<double>>();
+  ASSERT_EQ(totals.size(), 3u);
+  EXPECT_EQ(report["timings_ms"]["detect_total"].get<double>(), totals.back());
+  EXPECT_EQ(repeated["first_timings_ms"]["detect_total"].get<double>(), totals.front());
+  for (const auto& [stage, ms] : report["timings_ms"].items()) {
+    if (stage == "reference_model") continue;  // once per process, not per detection
+    EXPECT_TRUE(repeated["first_timings_ms"].contains(stage)) << stage;
+    EXPECT_GE(ms.get<double>(), 0.0) << stage;
+  }
+  std::ifstream once(dir / "once" / "report.json");
+  EXPECT_FALSE(nlohmann::json::parse(once).contains("repeated"));
+  for (const char* bad : {"0", "1001", "2x", "-1", ""}) {
+    const CliRun b = runCli(args + (dir / "bad").string() + " --repeat '" + bad + "'", dir);
+    EXPECT_EQ(b.code >> 8, 2) << bad;
+    EXPECT_NE(b.err.find("--repeat"), std::string::npos) << b.err;
+  }
+  fs::remove_all(dir);
+}
