@@ -2,8 +2,10 @@
 # Speed over whole suites, with the accuracy reached, on this machine:
 #  1. every scene of the 30-scene suite and the 36-scene viewpoint suite (seed 1) through
 #     novelty_detect on one thread and on two (compute/threads), in NOVELTY_SPEED_ROUNDS
-#     rounds (3): per-stage medians and worst cases of report.json's timings (each scene's
-#     median over the rounds), scene success and point F1 (evaluate);
+#     rounds (3), each run detecting its sweep twice (--repeat 2): per-stage medians and
+#     worst cases of report.json's timings (each scene's median over the rounds) of the
+#     second detection (a running node's, sweep after sweep) and of the first (a fresh
+#     process's), scene success and point F1 (evaluate);
 #  2. whole processes, interleaved: novelty_detect (its reference model built, and read back
 #     from --reference-cache) against baseline_detect (octree change detector, 0.1 m voxels,
 #     and Euclidean clusters) on the first 10 suite scenes, 3 rounds;
@@ -29,8 +31,9 @@ simulate_once "$OUT/scenes/viewpoint" --suite 36 --suite-kind viewpoint --seed 1
 simulate_once "$OUT/scenes/large" --seed 2 --layout office --lines 278
 
 # 1. The suites, one thread and two: NOVELTY_SPEED_ROUNDS rounds (3 by default), each scene
-# on one thread then two in turn, so that the machine's drift falls on both alike; a scene's
-# stage times are the medians of its rounds (report_rN.json), its outputs the same in each.
+# (detected twice in its process) on one thread then two in turn, so that the machine's drift
+# falls on both alike; a scene's stage times are the medians of its rounds (report_rN.json),
+# its outputs the same in each.
 ROUNDS="${NOVELTY_SPEED_ROUNDS:-3}"
 for threads in 1 2; do
   printf 'compute:\n  threads: %s\n' "$threads" > "$OUT/threads_$threads.yaml"
@@ -44,7 +47,8 @@ for round in $(seq 1 "$ROUNDS"); do
         mkdir -p "$dir"
         [ "$round" = 1 ] && rm -f "$dir"/report_r*.json
         "$BIN/novelty_detect" --reference "$scene/ref.pcd" --current "$scene/cur.pcd" \
-          --out "$dir" --config "$OUT/threads_$threads.yaml" > /dev/null 2> "$dir/stderr.log" ||
+          --out "$dir" --config "$OUT/threads_$threads.yaml" --repeat 2 \
+          > /dev/null 2> "$dir/stderr.log" ||
           log "$dir: novelty_detect failed: $(tail -n 1 "$dir/stderr.log")"
         [ -f "$dir/report.json" ] && cp "$dir/report.json" "$dir/report_r$round.json"
       done
