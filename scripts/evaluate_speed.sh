@@ -15,7 +15,7 @@
 #   bash scripts/evaluate_speed.sh [--no-docs] [OUT_DIR=out/speed]
 #
 # Writes OUT_DIR/speed.md (and the runs under OUT_DIR), bench/results/speed.md and, unless
-# --no-docs, the table of docs/evaluation.md between its speed-table markers. About 3
+# --no-docs, the table of docs/evaluation.md between its speed-table markers. About 6
 # minutes on 2 cores.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
