@@ -313,7 +313,8 @@ struct SegmentationParams {
     f("merge_floor_gap_factor", merge_floor_gap_factor,
       {"and only when their footprints on the floor (x, y) are closer than this many link "
        "radii: the gaps between tilt lines on one object are vertical, while two objects side "
-       "by side are apart on the floor",
+       "by side are apart on the floor (and, with the sweep's origin known, pieces whose "
+       "footprints are apart stay apart when the sweep's beams passed between them)",
        0.0, 1000.0});
     f("min_segment_points", min_segment_points,
       {"segments with fewer points are dropped", 1, 100000000});

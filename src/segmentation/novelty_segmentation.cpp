@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace novelty_detection {
 namespace {
@@ -210,6 +211,29 @@ double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, cons
   return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
 }
 
+namespace {
+
+/// Where the beam origin + t (p - origin), t >= 0, is in the box [lo, hi]: [t0, t1], empty
+/// (t0 > t1) when it misses the box.
+std::pair<float, float> beamInBox(const Eigen::Vector3f& origin, const Eigen::Vector3f& p,
+                                  const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+  const Eigen::Vector3f d = p - origin;
+  float t0 = 0.f, t1 = std::numeric_limits<float>::infinity();
+  for (int k = 0; k < 3 && t0 <= t1; ++k) {
+    if (std::abs(d[k]) < 1e-9f) {
+      if (origin[k] < lo[k] || origin[k] > hi[k]) return {1.f, 0.f};  // parallel, outside
+      continue;
+    }
+    float a = (lo[k] - origin[k]) / d[k], b = (hi[k] - origin[k]) / d[k];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return {t0, t1};
+}
+
+}  // namespace
+
 std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
                             const std::vector<char>& novel_mask, const Eigen::Vector3f& origin,
                             const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
@@ -217,20 +241,22 @@ std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
   std::size_t count = 0;
   for (int i : kept) {
     if (novel_mask[i]) continue;
-    // Slab test of the segment origin + t * (p - origin), t in [0, 1], against the box.
-    const Eigen::Vector3f d = cloud[i].getVector3fMap() - origin;
-    float t0 = 0.f, t1 = 1.f;
-    for (int k = 0; k < 3 && t0 <= t1; ++k) {
-      if (std::abs(d[k]) < 1e-9f) {
-        if (origin[k] < lo[k] || origin[k] > hi[k]) t0 = 2.f;
-        continue;
-      }
-      float a = (lo[k] - origin[k]) / d[k], b = (hi[k] - origin[k]) / d[k];
-      if (a > b) std::swap(a, b);
-      t0 = std::max(t0, a);
-      t1 = std::min(t1, b);
-    }
-    if (t0 <= t1 && ++count >= enough) break;
+    // The segment origin -> p, t in [0, 1], against the box.
+    const auto [t0, t1] = beamInBox(origin, cloud[i].getVector3fMap(), lo, hi);
+    if (t0 <= std::min(t1, 1.f) && ++count >= enough) break;
+  }
+  return count;
+}
+
+std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask,
+                         const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
+                         const Eigen::Vector3f& hi, std::size_t enough) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f p = cloud[i].getVector3fMap();
+    if (novel_mask[i] || !p.allFinite()) continue;
+    const auto [t0, t1] = beamInBox(origin, p, lo, hi);
+    if (t0 <= t1 && t1 < 1.f && ++count >= enough) break;
   }
   return count;
 }
@@ -279,6 +305,13 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
                            inner_lo.cwiseMin(inner_hi), inner_lo.cwiseMax(inner_hi),
                            kSeenGapBeams) >= kSeenGapBeams;
   };
+  // Pieces side by side: whether the sweep's beams passed between them, to whatever lies
+  // beyond (the floor too).
+  auto seenPast = [&](std::size_t a, std::size_t b) {
+    const Eigen::Vector3f inner_lo = hi[a].cwiseMin(hi[b]), inner_hi = lo[a].cwiseMax(lo[b]);
+    return beamsPastBox(cloud, novel_mask, sweep.origin, inner_lo.cwiseMin(inner_hi),
+                        inner_lo.cwiseMax(inner_hi), kSeenGapBeams) >= kSeenGapBeams;
+  };
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
   for (std::size_t a = 0; a < np; ++a) {
@@ -286,11 +319,15 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       const Eigen::Vector3f sep =
           (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
       if (sep.norm() > gap) continue;
-      // Same Gaussian, footprints close: one object seen through the gaps between lines.
-      // Any Gaussians, footprints overlapping, one piece above the other: one object cut
-      // by a gap between two tilt lines (a person's trunk and legs), unless the sweep saw
-      // through that gap. Objects side by side share heights, so this never joins them.
-      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap;
+      // Same Gaussian, footprints close: one object seen through the gaps between lines,
+      // unless the pieces stand side by side and the sweep's beams passed between them (two
+      // objects a hand apart, one Gaussian over both). Any Gaussians, footprints overlapping,
+      // one piece above the other: one object cut by a gap between two tilt lines (a
+      // person's trunk and legs), unless the sweep saw through that gap. Objects side by
+      // side share heights, so this never joins them.
+      const bool side_by_side = !sep.head<2>().isZero();
+      const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap &&
+                        (!side_by_side || !can_look || !seenPast(a, b));
       const bool stacked =
           sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
       if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));

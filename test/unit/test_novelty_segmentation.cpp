@@ -154,6 +154,91 @@ TEST(SegmentNovelPoints, StackedPiecesStayApartWhenTheSweepSawThroughTheGap) {
 
 namespace {
 
+/// Two novel pieces of ONE Gaussian side by side, seen from (0, 0, 0.7): boxes of 5 cm
+/// samples over x 3.0-3.2, z 0-0.5, one at y -0.45..-0.1, the other at y 0.1..0.45, a 0.2 m
+/// gap between their footprints (within merge_floor_gap_factor link radii). `beyond`: a wall
+/// at x = 5 (y -1..1, z 0..1.5) behind them, without the returns they hide, so that beams pass
+/// through the gap to it. `inside`: returns of a surface lying in the gap itself (x 3.1,
+/// y -0.05..0.05, z 0-0.5; not novel), beams that end in the gap rather than pass it.
+StackedScene sideBySidePieces(bool beyond, bool inside) {
+  StackedScene s;
+  const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
+  auto add = [&](float x, float y, float z, int owner) {
+    if (owner >= 0) s.novel.push_back(static_cast<int>(s.cloud.size())), s.owner.push_back(owner);
+    s.cloud.push_back(PointT(x, y, z));
+  };
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; j <= 7; ++j)
+      for (int k = 0; k <= 10; ++k) {
+        add(3.0f + 0.05f * i, -0.45f + 0.05f * j, 0.05f * k, 0);
+        add(3.0f + 0.05f * i, 0.1f + 0.05f * j, 0.05f * k, 0);
+      }
+  if (inside)
+    for (int j = 0; j <= 2; ++j)
+      for (int k = 0; k <= 10; ++k) add(3.1f, -0.05f + 0.05f * j, 0.05f * k, -1);
+  if (beyond) {
+    for (int j = 0; j <= 40; ++j)
+      for (int k = 0; k <= 30; ++k) {
+        const Eigen::Vector3f p(5.f, -1.f + 0.05f * j, 0.05f * k);
+        // Where the beam crosses x = 3-3.2 it must miss both pieces (and the inner surface).
+        bool hidden = false;
+        for (float x : {3.0f, 3.2f}) {
+          const Eigen::Vector3f q =
+              origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x()));
+          const float ay = std::abs(q.y());
+          hidden |= q.z() >= 0.f && q.z() <= 0.5f &&
+                    ((ay >= 0.1f && ay <= 0.45f) || (inside && ay <= 0.05f));
+        }
+        if (!hidden) add(p.x(), p.y(), p.z(), -1);
+      }
+  }
+  s.cloud.width = s.cloud.size(), s.cloud.height = 1;
+  s.all.resize(s.cloud.size());
+  for (std::size_t i = 0; i < s.cloud.size(); ++i) s.all[i] = static_cast<int>(i);
+  s.cloud.sensor_origin_.head<3>() = origin;
+  return s;
+}
+
+}  // namespace
+
+// Pieces side by side that one Gaussian owns merge as one object seen through gaps, unless
+// the sweep's beams passed between them to something beyond (two objects a hand apart):
+// returns that end inside the gap do not count, and without the sensor origin nothing is
+// known of the gap.
+TEST(SegmentNovelPoints, SideBySidePiecesStayApartWhenTheSweepSawPastTheGap) {
+  SegmentationParams p;
+  const std::size_t piece = 5 * 8 * 11;
+  for (const bool beyond : {false, true}) {
+    for (const bool inside : {false, true}) {
+      const StackedScene s = sideBySidePieces(beyond, inside);
+      SweepContext sweep;
+      sweep.kept = &s.all;
+      sweep.origin_known = true;
+      sweep.origin = s.cloud.sensor_origin_.head<3>();
+      double radius = 0.0;
+      const std::vector<Indices> seen =
+          segmentNovelPoints(s.cloud, s.novel, s.owner, 1, p, &radius, sweep);
+      ASSERT_GT(p.merge_floor_gap_factor * radius, 0.2);  // the gap is within merge range
+      ASSERT_LT(radius, 0.2);                             // and the pieces are not linked
+      if (beyond) {
+        ASSERT_EQ(seen.size(), 2u) << "inside " << inside;
+        EXPECT_EQ(seen[0].size(), piece);
+        EXPECT_EQ(seen[1].size(), piece);
+        sweep.origin_known = false;
+        const std::vector<Indices> blind =
+            segmentNovelPoints(s.cloud, s.novel, s.owner, 1, p, &radius, sweep);
+        ASSERT_EQ(blind.size(), 1u);
+        EXPECT_EQ(blind[0].size(), 2 * piece);
+      } else {
+        ASSERT_EQ(seen.size(), 1u) << "inside " << inside;
+        EXPECT_EQ(seen[0].size(), 2 * piece);
+      }
+    }
+  }
+}
+
+namespace {
+
 /// Points of a 5 cm grid on the plane x = x0 over y in [y0, y1], z in [z0, z1].
 void addWall(Cloud* c, float x0, float y0, float y1, float z0, float z1) {
   for (float y = y0; y <= y1 + 1e-4f; y += 0.05f)

@@ -120,13 +120,22 @@ std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
                             const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
                             std::size_t enough);
 
+/// Finite returns of the whole cloud (ground included) that are not in `novel_mask` and whose
+/// beam from `origin` passes through the box [lo, hi] and ends beyond it: the sweep saw past
+/// the box. Returns ending inside the box do not count. Counting stops at `enough`.
+std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask,
+                         const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
+                         const Eigen::Vector3f& hi, std::size_t enough);
+
 /// Segments of novel points (`points` ascending, `owner[k]` the most probable novel Gaussian
 /// of points[k], in [0, num_gaussians)): connected pieces (linkComponents with
 /// params.link_factor, the spacing capped by sweepSpacing over sweep.kept when given); pieces
 /// whose points mostly belong to the same novel Gaussian and whose bounding boxes lie within
 /// merge_gap_factor link radii (and their footprints on the floor within
 /// merge_floor_gap_factor) are one object seen through the gaps between tilt lines and merge
-/// (union-find); two objects side by side that share a Gaussian stay apart. Pieces of any
+/// (union-find); two objects side by side that share a Gaussian stay apart when their
+/// footprints are farther apart, or, with the sweep's origin known, when kSeenGapBeams or more
+/// of its beams passed between them to something beyond (beamsPastBox). Pieces of any
 /// Gaussians stacked one above the other (footprints overlapping, vertical gap within
 /// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines; but
 /// when the sweep's origin is known and kSeenGapBeams or more of its beams (not novel ones)
