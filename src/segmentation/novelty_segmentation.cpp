@@ -320,14 +320,17 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
           (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
       if (sep.norm() > gap) continue;
       // Same Gaussian, footprints close: one object seen through the gaps between lines,
-      // unless the pieces stand side by side and the sweep's beams passed between them (two
-      // objects a hand apart, one Gaussian over both). Any Gaussians, footprints overlapping,
-      // one piece above the other: one object cut by a gap between two tilt lines (a
-      // person's trunk and legs), unless the sweep saw through that gap. Objects side by
-      // side share heights, so this never joins them.
-      const bool side_by_side = !sep.head<2>().isZero();
+      // unless the pieces stand side by side, each large enough to be a segment, and the
+      // sweep's beams passed between them (two objects a hand apart, one Gaussian over both). Any
+      // Gaussians, footprints overlapping, one piece above the other: one object cut by a gap
+      // between two tilt lines (a person's trunk and legs), unless the sweep saw through that gap.
+      // Objects side by side share heights, so this never joins them. Only pieces that could each
+      // stand as a segment can be two objects.
+      const std::size_t least = static_cast<std::size_t>(std::max(1, params.min_segment_points));
+      const bool two_objects =
+          !sep.head<2>().isZero() && pieces[a].size() >= least && pieces[b].size() >= least;
       const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap &&
-                        (!side_by_side || !can_look || !seenPast(a, b));
+                        (!two_objects || !can_look || !seenPast(a, b));
       const bool stacked =
           sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
       if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));

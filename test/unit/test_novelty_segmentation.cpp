@@ -203,8 +203,8 @@ StackedScene sideBySidePieces(bool beyond, bool inside) {
 
 // Pieces side by side that one Gaussian owns merge as one object seen through gaps, unless
 // the sweep's beams passed between them to something beyond (two objects a hand apart):
-// returns that end inside the gap do not count, and without the sensor origin nothing is
-// known of the gap.
+// returns that end inside the gap do not count, pieces too small to be segments are not two
+// objects, and without the sensor origin nothing is known of the gap.
 TEST(SegmentNovelPoints, SideBySidePiecesStayApartWhenTheSweepSawPastTheGap) {
   SegmentationParams p;
   const std::size_t piece = 5 * 8 * 11;
@@ -224,6 +224,13 @@ TEST(SegmentNovelPoints, SideBySidePiecesStayApartWhenTheSweepSawPastTheGap) {
         ASSERT_EQ(seen.size(), 2u) << "inside " << inside;
         EXPECT_EQ(seen[0].size(), piece);
         EXPECT_EQ(seen[1].size(), piece);
+        // Pieces too small to be segments on their own are not two objects: merged.
+        SegmentationParams large = p;
+        large.min_segment_points = static_cast<int>(piece) + 1;
+        const std::vector<Indices> small =
+            segmentNovelPoints(s.cloud, s.novel, s.owner, 1, large, &radius, sweep);
+        ASSERT_EQ(small.size(), 1u);
+        EXPECT_EQ(small[0].size(), 2 * piece);
         sweep.origin_known = false;
         const std::vector<Indices> blind =
             segmentNovelPoints(s.cloud, s.novel, s.owner, 1, p, &radius, sweep);

@@ -134,8 +134,9 @@ std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask
 /// merge_gap_factor link radii (and their footprints on the floor within
 /// merge_floor_gap_factor) are one object seen through the gaps between tilt lines and merge
 /// (union-find); two objects side by side that share a Gaussian stay apart when their
-/// footprints are farther apart, or, with the sweep's origin known, when kSeenGapBeams or more
-/// of its beams passed between them to something beyond (beamsPastBox). Pieces of any
+/// footprints are farther apart, or, with the sweep's origin known and each piece of at least
+/// min_segment_points, when kSeenGapBeams or more of the sweep's beams passed between them to
+/// something beyond (beamsPastBox). Pieces of any
 /// Gaussians stacked one above the other (footprints overlapping, vertical gap within
 /// merge_gap_factor link radii) merge too: one object cut by a gap between tilt lines; but
 /// when the sweep's origin is known and kSeenGapBeams or more of its beams (not novel ones)
