@@ -82,6 +82,30 @@ struct StackedScene {
   std::vector<int> owner;
 };
 
+/// Adds a wall of 5 cm samples at x = 5 (y -1..1, z from z0, `rows` + 1 rows) seen from
+/// `origin`, without the returns whose beam crosses x = 3.0 or x = 3.2 where `blocked` says
+/// something nearer hides them.
+template <class Blocked>
+void addWallBehind(StackedScene* s, const Eigen::Vector3f& origin, float z0, int rows,
+                   Blocked blocked) {
+  for (int j = 0; j <= 40; ++j)
+    for (int k = 0; k <= rows; ++k) {
+      const Eigen::Vector3f p(5.f, -1.f + 0.05f * j, z0 + 0.05f * k);
+      bool hidden = false;
+      for (float x : {3.0f, 3.2f})
+        hidden |= blocked(origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x())));
+      if (!hidden) s->cloud.push_back(PointT(p.x(), p.y(), p.z()));
+    }
+}
+
+/// Every point is kept; the sensor at `origin`.
+void finishScene(StackedScene* s, const Eigen::Vector3f& origin) {
+  s->cloud.width = s->cloud.size(), s->cloud.height = 1;
+  s->all.resize(s->cloud.size());
+  for (std::size_t i = 0; i < s->cloud.size(); ++i) s->all[i] = static_cast<int>(i);
+  s->cloud.sensor_origin_.head<3>() = origin;
+}
+
 StackedScene stackedPieces(bool wall) {
   StackedScene s;
   const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
@@ -95,24 +119,13 @@ StackedScene stackedPieces(bool wall) {
       for (int k = 0; k <= 6; ++k) add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.9f + 0.05f * k, 1);
     }
   if (wall) {
-    for (int j = 0; j <= 40; ++j)
-      for (int k = 0; k <= 50; ++k) {
-        const Eigen::Vector3f p(5.f, -1.f + 0.05f * j, -0.5f + 0.05f * k);
-        // Where the beam crosses x = 3-3.2, it must miss both pieces.
-        bool hidden = false;
-        for (float x : {3.0f, 3.2f}) {
-          const Eigen::Vector3f q =
-              origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x()));
-          const bool in_y = std::abs(q.y()) <= 0.2f;
-          hidden |= in_y && ((q.z() >= 0.f && q.z() <= 0.5f) || (q.z() >= 0.9f && q.z() <= 1.2f));
-        }
-        if (!hidden) add(p.x(), p.y(), p.z(), -1);
-      }
+    // Where a beam crosses x = 3-3.2, it must miss both pieces.
+    addWallBehind(&s, origin, -0.5f, 50, [](const Eigen::Vector3f& q) {
+      return std::abs(q.y()) <= 0.2f &&
+             ((q.z() >= 0.f && q.z() <= 0.5f) || (q.z() >= 0.9f && q.z() <= 1.2f));
+    });
   }
-  s.cloud.width = s.cloud.size(), s.cloud.height = 1;
-  s.all.resize(s.cloud.size());
-  for (std::size_t i = 0; i < s.cloud.size(); ++i) s.all[i] = static_cast<int>(i);
-  s.cloud.sensor_origin_.head<3>() = origin;
+  finishScene(&s, origin);
   return s;
 }
 
@@ -177,25 +190,14 @@ StackedScene sideBySidePieces(bool beyond, bool inside) {
     for (int j = 0; j <= 2; ++j)
       for (int k = 0; k <= 10; ++k) add(3.1f, -0.05f + 0.05f * j, 0.05f * k, -1);
   if (beyond) {
-    for (int j = 0; j <= 40; ++j)
-      for (int k = 0; k <= 30; ++k) {
-        const Eigen::Vector3f p(5.f, -1.f + 0.05f * j, 0.05f * k);
-        // Where the beam crosses x = 3-3.2 it must miss both pieces (and the inner surface).
-        bool hidden = false;
-        for (float x : {3.0f, 3.2f}) {
-          const Eigen::Vector3f q =
-              origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x()));
-          const float ay = std::abs(q.y());
-          hidden |= q.z() >= 0.f && q.z() <= 0.5f &&
-                    ((ay >= 0.1f && ay <= 0.45f) || (inside && ay <= 0.05f));
-        }
-        if (!hidden) add(p.x(), p.y(), p.z(), -1);
-      }
+    // Where a beam crosses x = 3-3.2 it must miss both pieces (and the inner surface).
+    addWallBehind(&s, origin, 0.f, 30, [inside](const Eigen::Vector3f& q) {
+      const float ay = std::abs(q.y());
+      return q.z() >= 0.f && q.z() <= 0.5f &&
+             ((ay >= 0.1f && ay <= 0.45f) || (inside && ay <= 0.05f));
+    });
   }
-  s.cloud.width = s.cloud.size(), s.cloud.height = 1;
-  s.all.resize(s.cloud.size());
-  for (std::size_t i = 0; i < s.cloud.size(); ++i) s.all[i] = static_cast<int>(i);
-  s.cloud.sensor_origin_.head<3>() = origin;
+  finishScene(&s, origin);
   return s;
 }
 
