@@ -80,6 +80,11 @@ struct StackedScene {
   Cloud cloud;
   Indices all, novel;
   std::vector<int> owner;
+  /// A point; novel, of Gaussian `by`, when by >= 0.
+  void add(float x, float y, float z, int by) {
+    if (by >= 0) novel.push_back(static_cast<int>(cloud.size())), owner.push_back(by);
+    cloud.push_back(PointT(x, y, z));
+  }
 };
 
 /// Adds a wall of 5 cm samples at x = 5 (y -1..1, z from z0, `rows` + 1 rows) seen from
@@ -94,7 +99,7 @@ void addWallBehind(StackedScene* s, const Eigen::Vector3f& origin, float z0, int
       bool hidden = false;
       for (float x : {3.0f, 3.2f})
         hidden |= blocked(origin + (p - origin) * ((x - origin.x()) / (p.x() - origin.x())));
-      if (!hidden) s->cloud.push_back(PointT(p.x(), p.y(), p.z()));
+      if (!hidden) s->add(p.x(), p.y(), p.z(), -1);
     }
 }
 
@@ -109,14 +114,10 @@ void finishScene(StackedScene* s, const Eigen::Vector3f& origin) {
 StackedScene stackedPieces(bool wall) {
   StackedScene s;
   const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
-  auto add = [&](float x, float y, float z, int owner) {
-    if (owner >= 0) s.novel.push_back(static_cast<int>(s.cloud.size())), s.owner.push_back(owner);
-    s.cloud.push_back(PointT(x, y, z));
-  };
   for (int i = 0; i <= 4; ++i)
     for (int j = 0; j <= 8; ++j) {
-      for (int k = 0; k <= 10; ++k) add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.05f * k, 0);
-      for (int k = 0; k <= 6; ++k) add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.9f + 0.05f * k, 1);
+      for (int k = 0; k <= 10; ++k) s.add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.05f * k, 0);
+      for (int k = 0; k <= 6; ++k) s.add(3.0f + 0.05f * i, -0.2f + 0.05f * j, 0.9f + 0.05f * k, 1);
     }
   if (wall) {
     // Where a beam crosses x = 3-3.2, it must miss both pieces.
@@ -176,19 +177,15 @@ namespace {
 StackedScene sideBySidePieces(bool beyond, bool inside) {
   StackedScene s;
   const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
-  auto add = [&](float x, float y, float z, int owner) {
-    if (owner >= 0) s.novel.push_back(static_cast<int>(s.cloud.size())), s.owner.push_back(owner);
-    s.cloud.push_back(PointT(x, y, z));
-  };
   for (int i = 0; i <= 4; ++i)
     for (int j = 0; j <= 7; ++j)
       for (int k = 0; k <= 10; ++k) {
-        add(3.0f + 0.05f * i, -0.45f + 0.05f * j, 0.05f * k, 0);
-        add(3.0f + 0.05f * i, 0.1f + 0.05f * j, 0.05f * k, 0);
+        s.add(3.0f + 0.05f * i, -0.45f + 0.05f * j, 0.05f * k, 0);
+        s.add(3.0f + 0.05f * i, 0.1f + 0.05f * j, 0.05f * k, 0);
       }
   if (inside)
     for (int j = 0; j <= 2; ++j)
-      for (int k = 0; k <= 10; ++k) add(3.1f, -0.05f + 0.05f * j, 0.05f * k, -1);
+      for (int k = 0; k <= 10; ++k) s.add(3.1f, -0.05f + 0.05f * j, 0.05f * k, -1);
   if (beyond) {
     // Where a beam crosses x = 3-3.2 it must miss both pieces (and the inner surface).
     addWallBehind(&s, origin, 0.f, 30, [inside](const Eigen::Vector3f& q) {
