@@ -80,6 +80,14 @@ struct StackedScene {
   Cloud cloud;
   Indices all, novel;
   std::vector<int> owner;
+  /// Every point kept, the sensor's origin known.
+  SweepContext sweep() const {
+    SweepContext c;
+    c.kept = &all;
+    c.origin_known = true;
+    c.origin = cloud.sensor_origin_.head<3>();
+    return c;
+  }
   /// A point; novel, of Gaussian `by`, when by >= 0.
   void add(float x, float y, float z, int by) {
     if (by >= 0) novel.push_back(static_cast<int>(cloud.size())), owner.push_back(by);
@@ -140,10 +148,7 @@ TEST(SegmentNovelPoints, StackedPiecesStayApartWhenTheSweepSawThroughTheGap) {
   const std::size_t lower = 5 * 9 * 11, upper = 5 * 9 * 7;
   for (const bool wall : {false, true}) {
     const StackedScene s = stackedPieces(wall);
-    SweepContext sweep;
-    sweep.kept = &s.all;
-    sweep.origin_known = true;
-    sweep.origin = s.cloud.sensor_origin_.head<3>();
+    SweepContext sweep = s.sweep();
     double radius = 0.0;
     const std::vector<Indices> seen =
         segmentNovelPoints(s.cloud, s.novel, s.owner, 2, p, &radius, sweep);
@@ -210,10 +215,7 @@ TEST(SegmentNovelPoints, SideBySidePiecesStayApartWhenTheSweepSawPastTheGap) {
   for (const bool beyond : {false, true}) {
     for (const bool inside : {false, true}) {
       const StackedScene s = sideBySidePieces(beyond, inside);
-      SweepContext sweep;
-      sweep.kept = &s.all;
-      sweep.origin_known = true;
-      sweep.origin = s.cloud.sensor_origin_.head<3>();
+      SweepContext sweep = s.sweep();
       double radius = 0.0;
       const std::vector<Indices> seen =
           segmentNovelPoints(s.cloud, s.novel, s.owner, 1, p, &radius, sweep);
