@@ -40,6 +40,26 @@ CliRun runCli(const std::string& args, const fs::path& dir) {
 
 fs::path tempDir(const std::string& name) { return test_helpers::freshTempDir("cli", name); }
 
+/// A simulated pair with one new object of `kind` saved as dir/ref.pcd and dir/cur.pcd; the
+/// arguments naming them.
+std::string savedPair(const fs::path& dir, unsigned seed, sim::NoveltyKind kind) {
+  sim::SceneConfig c;
+  c.seed = seed;
+  c.novelty_kinds = {kind};
+  const sim::ScenePair s = sim::generateScenePair(c);
+  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
+  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
+  return "--reference " + (dir / "ref.pcd").string() + " --current " + (dir / "cur.pcd").string();
+}
+
+/// A whole file as text.
+std::string fileText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 }  // namespace
 
 TEST(NoveltyDetectCli, WritesTheContractFiles) {
@@ -349,25 +369,12 @@ TEST(NoveltyDetectCli, OriginAndUpFlags) {
 // stderr and replaced, and the run still succeeds.
 TEST(NoveltyDetectCli, ReferenceCache) {
   const fs::path dir = tempDir("cache");
-  sim::SceneConfig c;
-  c.seed = 9;
-  c.novelty_kinds = {sim::NoveltyKind::kBox};
-  const sim::ScenePair s = sim::generateScenePair(c);
-  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
-  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
-  const std::string args = "--reference " + (dir / "ref.pcd").string() + " --current " +
-                           (dir / "cur.pcd").string() + " --reference-cache " +
+  const std::string args = savedPair(dir, 9, sim::NoveltyKind::kBox) + " --reference-cache " +
                            (dir / "models").string() + " --out ";
   auto report = [&](const std::string& run) {
-    std::ifstream in(dir / run / "report.json");
-    return nlohmann::json::parse(in);
+    return nlohmann::json::parse(fileText(dir / run / "report.json"));
   };
-  auto file = [&](const std::string& run, const char* name) {
-    std::ifstream in(dir / run / name);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
+  auto file = [&](const std::string& run, const char* name) { return fileText(dir / run / name); };
   ASSERT_EQ(runCli(args + (dir / "first").string(), dir).code, 0);
   ASSERT_EQ(runCli(args + (dir / "second").string(), dir).code, 0);
   const auto first = report("first"), second = report("second");
@@ -402,28 +409,15 @@ TEST(NoveltyDetectCli, ReferenceCache) {
 // and every total; a count that is not a whole number from 1 to 1000 is a bad argument.
 TEST(NoveltyDetectCli, RepeatDetectsInOneProcess) {
   const fs::path dir = tempDir("repeat");
-  sim::SceneConfig c;
-  c.seed = 4;
-  c.novelty_kinds = {sim::NoveltyKind::kCylinder};
-  const sim::ScenePair s = sim::generateScenePair(c);
-  saveCloudAtomic((dir / "ref.pcd").string(), s.reference);
-  saveCloudAtomic((dir / "cur.pcd").string(), s.current);
-  const std::string args = "--reference " + (dir / "ref.pcd").string() + " --current " +
-                           (dir / "cur.pcd").string() + " --out ";
-  auto file = [&](const std::string& run, const char* name) {
-    std::ifstream in(dir / run / name);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
+  const std::string args = savedPair(dir, 4, sim::NoveltyKind::kCylinder) + " --out ";
+  auto file = [&](const std::string& run, const char* name) { return fileText(dir / run / name); };
   ASSERT_EQ(runCli(args + (dir / "once").string(), dir).code, 0);
   const CliRun r = runCli(args + (dir / "thrice").string() + " --repeat 3", dir);
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* name : {"labels.txt", "superquadrics.json", "disappeared_labels.txt"})
     EXPECT_EQ(file("once", name), file("thrice", name)) << name;
   EXPECT_NE(file("once", "labels.txt").find('1'), std::string::npos);  // something found
-  std::ifstream in(dir / "thrice" / "report.json");
-  const auto report = nlohmann::json::parse(in);
+  const auto report = nlohmann::json::parse(fileText(dir / "thrice" / "report.json"));
   ASSERT_TRUE(report.contains("repeated"));
   const auto& repeated = report["repeated"];
   EXPECT_EQ(repeated["detections"].get<int>(), 3);
@@ -437,8 +431,7 @@ TEST(NoveltyDetectCli, RepeatDetectsInOneProcess) {
     EXPECT_TRUE(repeated["first_timings_ms"].contains(stage)) << stage;
     EXPECT_GE(ms.get<double>(), 0.0) << stage;
   }
-  std::ifstream once(dir / "once" / "report.json");
-  EXPECT_FALSE(nlohmann::json::parse(once).contains("repeated"));
+  EXPECT_FALSE(nlohmann::json::parse(fileText(dir / "once" / "report.json")).contains("repeated"));
   for (const char* bad : {"0", "1001", "2x", "-1", ""}) {
     const CliRun b = runCli(args + (dir / "bad").string() + " --repeat '" + bad + "'", dir);
     EXPECT_EQ(b.code >> 8, 2) << bad;
