@@ -253,6 +253,9 @@ int run(const Args& args) {
       return kExitNoOverlap;
     }
     runs_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t1).count());
+    if (args.repeat == 1) break;
+    std::cout << "novelty_detect: detection " << run + 1 << " of " << args.repeat << ", "
+              << runs_ms.back() << " ms\n";
     if (run == 0) {
       first_timings = nd::cli::timingsJson(result, runs_ms.front());
       first_labels = result.labels;
