@@ -133,9 +133,6 @@ def scored(path):
             "mean_f1": statistics.mean(s["f1"] for s in with_novel) if with_novel else 0.0}
 
 
-print(f"Commit {COMMIT}, {MACHINE}, load {LOAD} at the end; Release build; "
-      "`bash scripts/evaluate_speed.sh`.")
-print()
 def stage_table(first):
     runs = {t: reports(t, first) for t in (1, 2)}
     stages = sorted({k for t in runs for r in runs[t] for k in r},
@@ -157,6 +154,9 @@ def stage_table(first):
     print()
 
 
+print(f"Commit {COMMIT}, {MACHINE}, load {LOAD} at the end; Release build; "
+      "`bash scripts/evaluate_speed.sh`.")
+print()
 print("**Per stage, over the 30-scene suite and the 36-scene viewpoint suite (66 simulated "
       f"30k sweeps, seed 1)**, from each run's `report.json`, each scene's median of {ROUNDS} "
       "rounds (one thread and two in turn): median and worst scene [ms]. Each run detects its "

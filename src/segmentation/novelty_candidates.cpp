@@ -14,8 +14,6 @@ NoveltyCandidates chooseNoveltyCandidates(const Cloud& current, const Indices& k
   if (novel.empty()) return out;
   const double threshold = params.segmentation.posterior_threshold;
   const int threads = params.compute.resolved();
-  // Posteriors of the representatives first: only points of clusters with some novel
-  // posterior mass are evaluated one by one (a small fraction of the sweep).
   // Each point's posterior mass on the novel Gaussians, and the novel one of most (-1 when
   // none has any), taken point by point: no K x N matrix of responsibilities.
   const auto novelMass = [&](const Eigen::Matrix3Xd& x, std::vector<double>* mass,

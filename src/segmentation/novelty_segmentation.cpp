@@ -2,6 +2,8 @@
 
 #include "common/knn.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -299,19 +301,25 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     for (int i : points) novel_mask[i] = 1;
   }
   // The box between two pieces' bounding boxes: per axis their gap, or their overlap.
-  auto seenThrough = [&](std::size_t a, std::size_t b) {
+  auto gapBox = [&](std::size_t a, std::size_t b) {
     const Eigen::Vector3f inner_lo = hi[a].cwiseMin(hi[b]), inner_hi = lo[a].cwiseMax(lo[b]);
-    return beamsThroughBox(cloud, *sweep.kept, novel_mask, sweep.origin,
-                           inner_lo.cwiseMin(inner_hi), inner_lo.cwiseMax(inner_hi),
+    return Eigen::AlignedBox3f(inner_lo.cwiseMin(inner_hi), inner_lo.cwiseMax(inner_hi));
+  };
+  // Stacked pieces: whether the sweep's beams ended in or passed through the gap.
+  auto seenThrough = [&](std::size_t a, std::size_t b) {
+    const Eigen::AlignedBox3f box = gapBox(a, b);
+    return beamsThroughBox(cloud, *sweep.kept, novel_mask, sweep.origin, box.min(), box.max(),
                            kSeenGapBeams) >= kSeenGapBeams;
   };
   // Pieces side by side: whether the sweep's beams passed between them, to whatever lies
   // beyond (the floor too).
   auto seenPast = [&](std::size_t a, std::size_t b) {
-    const Eigen::Vector3f inner_lo = hi[a].cwiseMin(hi[b]), inner_hi = lo[a].cwiseMax(lo[b]);
-    return beamsPastBox(cloud, novel_mask, sweep.origin, inner_lo.cwiseMin(inner_hi),
-                        inner_lo.cwiseMax(inner_hi), kSeenGapBeams) >= kSeenGapBeams;
+    const Eigen::AlignedBox3f box = gapBox(a, b);
+    return beamsPastBox(cloud, novel_mask, sweep.origin, box.min(), box.max(), kSeenGapBeams) >=
+           kSeenGapBeams;
   };
+  // Only pieces that could each stand as a segment can be two objects.
+  const std::size_t least = static_cast<std::size_t>(std::max(1, params.min_segment_points));
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
   for (std::size_t a = 0; a < np; ++a) {
@@ -321,12 +329,10 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       if (sep.norm() > gap) continue;
       // Same Gaussian, footprints close: one object seen through the gaps between lines,
       // unless the pieces stand side by side, each large enough to be a segment, and the
-      // sweep's beams passed between them (two objects a hand apart, one Gaussian over both). Any
-      // Gaussians, footprints overlapping, one piece above the other: one object cut by a gap
-      // between two tilt lines (a person's trunk and legs), unless the sweep saw through that gap.
-      // Objects side by side share heights, so this never joins them. Only pieces that could each
-      // stand as a segment can be two objects.
-      const std::size_t least = static_cast<std::size_t>(std::max(1, params.min_segment_points));
+      // sweep's beams passed between them (two objects a hand apart, one Gaussian over both).
+      // Any Gaussians, footprints overlapping, one piece above the other: one object cut by a
+      // gap between two tilt lines (a person's trunk and legs), unless the sweep saw through
+      // that gap. Objects side by side share heights, so this never joins them.
       const bool two_objects =
           !sep.head<2>().isZero() && pieces[a].size() >= least && pieces[b].size() >= least;
       const bool same = dominant[a] == dominant[b] && sep.head<2>().norm() <= floor_gap &&
