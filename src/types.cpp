@@ -2,6 +2,7 @@
 
 #include "novelty_detection/preprocess/input_check.h"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -38,6 +39,20 @@ Eigen::Matrix3d Superquadric::rotation() const {
 
 Eigen::Quaterniond Superquadric::quaternion() const {
   return Eigen::Quaterniond(rotation()).normalized();
+}
+
+std::vector<StageTiming> stageTotals(const std::vector<StageTiming>& timings) {
+  std::vector<StageTiming> out;
+  for (const StageTiming& t : timings) {
+    auto it = std::find_if(out.begin(), out.end(),
+                           [&t](const StageTiming& o) { return o.stage == t.stage; });
+    if (it == out.end()) {
+      out.push_back(t);
+    } else {
+      it->ms += t.ms;
+    }
+  }
+  return out;
 }
 
 Segment makeSegment(const Cloud& cloud, Indices indices, int id) {

@@ -103,6 +103,11 @@ struct StageTiming {
   double ms = 0.0;
 };
 
+/// Each stage of `timings` once, in the order it first ran, with the total of its runs (a
+/// sweep whose robot returns were found runs pre-processing, the multi-scale cut and the
+/// distances to the map twice: with them, then without).
+std::vector<StageTiming> stageTotals(const std::vector<StageTiming>& timings);
+
 /// What the fine alignment stage (alignment.h) did to the current sweep before comparison.
 /// `correction` maps the sweep as given onto the reference: p_map = correction * p_given.
 struct AlignmentResult {
@@ -144,6 +149,7 @@ struct Result {
 
   /// Points surviving each stage, e.g. {"input", 30000}, {"finite", 29800}, ...
   std::vector<std::pair<std::string, std::size_t>> point_counts;
+  /// Stage times in the order they ran; a stage run twice is listed twice (stageTotals()).
   std::vector<StageTiming> timings;
   /// Fine alignment of the sweep. When applied, segments and superquadrics are expressed in
   /// the reference (map) frame after the correction; labels keep the input order.

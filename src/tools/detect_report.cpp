@@ -80,7 +80,7 @@ json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
 
 json timingsJson(const nd::Result& r, double detect_ms) {
   json timings = json::object();
-  for (const auto& t : r.timings) timings[t.stage] = t.ms;
+  for (const auto& t : nd::stageTotals(r.timings)) timings[t.stage] = t.ms;
   timings["detect_total"] = detect_ms;
   return timings;
 }

@@ -30,7 +30,8 @@ void colour(int id, std::uint8_t& r, std::uint8_t& g, std::uint8_t& b);
 /// superquadrics.json: one entry per superquadric.
 nlohmann::json superquadricsJson(const std::vector<Superquadric>& superquadrics);
 
-/// The stage times of one detection [ms], with its wall time as detect_total.
+/// The stage times of one detection [ms] (a stage run twice: the total, stageTotals()), with
+/// its wall time as detect_total.
 nlohmann::json timingsJson(const Result& r, double detect_ms);
 
 /// report.json.

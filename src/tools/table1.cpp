@@ -143,9 +143,9 @@ Run runScene(const Params& params, const Scene& s) {
   t1 = std::chrono::steady_clock::now();
   run.cpu_ms = cpuMs() - c0;
   run.wall_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  for (const auto& t : r.timings) {
-    if (!run.stage_ms.count(t.stage)) run.stage_order.push_back(t.stage);
-    run.stage_ms[t.stage] += t.ms;
+  for (const auto& t : stageTotals(r.timings)) {
+    run.stage_order.push_back(t.stage);
+    run.stage_ms[t.stage] = t.ms;
   }
   const SceneScore sc = scoreLabels(r.labels, s.truth);
   run.success = sc.success;

@@ -3,10 +3,13 @@
 // origins (a cloud in its own sensor frame has its origin at zero).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <random>
+#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -223,6 +226,40 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   Cloud unknown = cur;
   unknown.sensor_origin_.setZero();
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
+}
+
+// A sweep whose robot returns were found is pre-processed again without them: its stage
+// times list those stages twice, and their totals count both runs.
+TEST(SelfReturns, SweepIsSimplifiedAgainWithoutThemAndBothRunsAreTimed) {
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  std::vector<int> body_ref, body_cur;
+  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
+  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
+  Params p;
+  p.superquadric.enabled = false;
+  Pipeline pipeline(p);
+  pipeline.setReference(ref);
+  const Result r = pipeline.detect(cur);
+  std::size_t self_returns = 0;
+  for (const auto& [stage, n] : r.point_counts)
+    if (stage == "self_returns") self_returns = n;
+  EXPECT_GE(self_returns, body_cur.size() * 95 / 100);
+  for (int i : body_cur) EXPECT_EQ(r.labels[i], 0) << "robot return " << i << " labelled";
+  std::map<std::string, int> runs;
+  std::map<std::string, double> sum;
+  for (const StageTiming& t : r.timings) ++runs[t.stage], sum[t.stage] += t.ms;
+  for (const char* stage : {"preprocess", "multiscale", "distances"})
+    EXPECT_EQ(runs[stage], 2) << stage;
+  const std::vector<StageTiming> totals = stageTotals(r.timings);
+  ASSERT_EQ(totals.size(), runs.size());
+  std::vector<std::string> order;
+  for (const StageTiming& t : r.timings)
+    if (std::find(order.begin(), order.end(), t.stage) == order.end()) order.push_back(t.stage);
+  for (std::size_t k = 0; k < totals.size(); ++k) {
+    EXPECT_EQ(totals[k].stage, order[k]);
+    EXPECT_DOUBLE_EQ(totals[k].ms, sum[totals[k].stage]);
+  }
+  EXPECT_EQ(stageTotals({{"a", 1.0}, {"b", 2.0}, {"a", 0.5}}).front().ms, 1.5);
 }
 
 // The map's side made once (as a map's model keeps it) gives the marks a fresh test gives,
