@@ -84,6 +84,9 @@ class KnnTree {
   void within(const Eigen::Vector3f& p, double radius, std::vector<int>* out) const;
 
   std::size_t size() const { return x_.size(); }
+  /// Input positions in the tree's order: a leaf's points, then its neighbour's, ... (queries
+  /// made in this order from the indexed points descend the same paths one after another).
+  const std::vector<int>& treeOrder() const { return id_; }
 
   /// The tree restricted to the points at the input positions p with keep[p] != 0 (keep has
   /// one flag per indexed point): the same subtrees, their boxes shrunk to the points they

@@ -96,9 +96,13 @@ void markMatches(const Points& a, const std::vector<int>& a_index, const detail:
   // the points there are), i.e. the (k+1)-th nearest with itself counted.
   const int k = std::min<int>(kSpacingNeighbours, static_cast<int>(own.size()) - 1) + 1;
   // Blocks of points on `threads` threads: each point writes only its own (distinct) slot.
+  // The points go in the order of their own index: neighbours one after another, whose
+  // searches in the map and in the other sweep follow the same paths.
   constexpr int kBlock = 1024;
   const int n = static_cast<int>(a.size());
-  detail::parallelForBlocks(n, kBlock, threads, [&](int i) {
+  const std::vector<int>& order = own.treeOrder();
+  detail::parallelForBlocks(n, kBlock, threads, [&](int t) {
+    const int i = order[static_cast<std::size_t>(t)];
     // Cheapest test first: a point the map explains within both distances fits neither rule
     // (most of a sweep), whatever the robot's frame says.
     const Eigen::Vector3f p = cloud[a_index[i]].getVector3fMap();

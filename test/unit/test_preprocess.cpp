@@ -169,6 +169,30 @@ TEST(KnnTree, ParallelBuildIsTheSameTree) {
   }
 }
 
+// The tree's order lists every point once, neighbours after one another: consecutive points
+// of a uniform random cloud lie a leaf apart, not a random pair apart.
+TEST(KnnTree, TreeOrderIsAPermutationOfNeighbours) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<float> u(0.f, 4.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 20000; ++k) pts.emplace_back(u(rng), u(rng), u(rng));
+  const nd::detail::KnnTree tree(pts, 2);
+  std::vector<int> order = tree.treeOrder();
+  ASSERT_EQ(order.size(), pts.size());
+  auto mean_step = [&](const std::vector<int>& o) {
+    double sum = 0.0;
+    for (std::size_t k = 1; k < o.size(); ++k) sum += (pts[o[k]] - pts[o[k - 1]]).norm();
+    return sum / static_cast<double>(o.size() - 1);
+  };
+  std::vector<int> input(pts.size());
+  for (std::size_t k = 0; k < input.size(); ++k) input[k] = static_cast<int>(k);
+  EXPECT_GT(mean_step(input), 2.0);  // a random pair in a 4 m cube: 2.65 m on average
+  EXPECT_LT(mean_step(order), 0.4);
+  std::sort(order.begin(), order.end());
+  EXPECT_EQ(order, input);
+  EXPECT_EQ(nd::detail::KnnTree(pts, 1).treeOrder(), tree.treeOrder());
+}
+
 // A tree restricted to a subset of its points (the sweep's kept points out of the distinct
 // ones) answers every query as a tree built over the subset does: the same distances and
 // statistics to the bit, the same points within a radius (in any order), the same sums of
