@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "novelty_detection/shape/superquadric_cost.h"
+#include "shape/superquadric_kernel.h"
 
 namespace novelty_detection {
 namespace detail {
@@ -171,8 +172,13 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
   const Vec scale =
       (Vec::Ones() + at_x->jacobian.colwise().norm().transpose()).cwiseInverse().cwiseProduct(free);
   double radius = kInitialRadius, decrease_factor = 2.0;
-  Mat jtj = at_x->jacobian.transpose().lazyProduct(at_x->jacobian);
-  Vec gradient = at_x->jacobian.transpose() * at_x->residuals;
+  Mat jtj;
+  Vec gradient;
+  auto normal_equations = [&] {
+    normalEquations(at_x->jacobian.data(), at_x->residuals.data(), at_x->jacobian.rows(), kN,
+                    jtj.data(), gradient.data());
+  };
+  normal_equations();
   auto projected_gradient_norm = [&] {
     double norm = 0.0;
     for (int i = 0; i < kN; ++i) {
@@ -294,8 +300,7 @@ bool solveBounded(const std::vector<const ceres::CostFunction*>& costs, FitVecto
       x = candidate;
       x_cost = candidate_cost;
       std::swap(at_x, at_candidate);
-      jtj = at_x->jacobian.transpose().lazyProduct(at_x->jacobian);
-      gradient = at_x->jacobian.transpose() * at_x->residuals;
+      normal_equations();
       const double t = 2.0 * rho - 1.0;
       radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - t * t * t));
       decrease_factor = 2.0;

@@ -1,5 +1,6 @@
 // Vectorised kernels of SuperquadricBatchResidual (superquadric_cost.h): eq. 3's residual
-// and its Jacobian over chunks of points. This file may be compiled for wider SIMD than the
+// and its Jacobian over chunks of points, and the normal equations of a least-squares step
+// (J^T J, J^T r). This file may be compiled for wider SIMD than the
 // rest of the library (CMake option NOVELTY_AVX2), so its interface is raw pointers and it
 // allocates nothing on the heap: no Eigen object crosses between code built for different
 // alignments.
@@ -289,6 +290,18 @@ void superquadricDistances(const double* shape, const double* rotation, const do
       }
     }
     result = d;
+  }
+}
+
+void normalEquations(const double* jacobian, const double* residuals, Eigen::Index rows,
+                     Eigen::Index cols, double* jtj, double* jtr) {
+  using Column = Eigen::Map<const Eigen::VectorXd>;
+  const Column r(residuals, rows);
+  for (Eigen::Index i = 0; i < cols; ++i) {
+    const Column ci(jacobian + i * rows, rows);
+    for (Eigen::Index j = i; j < cols; ++j)
+      jtj[i + j * cols] = jtj[j + i * cols] = ci.dot(Column(jacobian + j * rows, rows));
+    jtr[i] = ci.dot(r);
   }
 }
 

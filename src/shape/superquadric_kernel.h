@@ -1,4 +1,5 @@
-// Kernels of the batched superquadric residual (superquadric_cost.h), in their own file
+// Kernels of the batched superquadric residual (superquadric_cost.h) and of the normal
+// equations of the fits' least-squares steps (least_squares.h), in their own file
 // (superquadric_cost_kernel.cpp) so that it can be compiled for wider SIMD: raw pointers
 // only, no Eigen object allocated on one side and freed on the other.
 #pragma once
@@ -83,6 +84,13 @@ void superquadricSurfaceResiduals(double const* const* parameters, const double*
 void superquadricDistances(const double* shape, const double* rotation, const double* centre,
                            const double* points, const int* index, Eigen::Index n, bool surface,
                            double* out);
+
+/// The normal equations of a least-squares step from a column-major rows x cols Jacobian J
+/// (leading dimension rows) and the residuals r: J^T J into jtj (cols x cols, column-major;
+/// both triangles) and J^T r into jtr (cols). Each entry is one dot product of two columns,
+/// the upper triangle only (the lower one copied), vectorised.
+void normalEquations(const double* jacobian, const double* residuals, Eigen::Index rows,
+                     Eigen::Index cols, double* jtj, double* jtr);
 
 }  // namespace detail
 }  // namespace novelty_detection

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "../../src/shape/least_squares.h"
+#include "../../src/shape/superquadric_kernel.h"
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/shape/superquadric_cost.h"
 #include "superquadric_samples.h"
@@ -63,6 +64,32 @@ FitVector filled(double v) {
 }
 
 }  // namespace
+
+// The normal equations of a step (J^T J and J^T r from one pass of column dot products) are
+// Eigen's products up to rounding, symmetric to the bit, at sizes around the SIMD chunk.
+TEST(LeastSquares, NormalEquationsAreTheProducts) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (const Eigen::Index rows : {1, 3, 64, 1000, 1537}) {
+    Eigen::Matrix<double, Eigen::Dynamic, nd::detail::kFitParameters> j(rows, 11);
+    Eigen::VectorXd r(rows);
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      r[i] = g(rng);
+      for (int c = 0; c < 11; ++c) j(i, c) = g(rng) * (1 + c);
+    }
+    Eigen::Matrix<double, 11, 11> jtj;
+    Eigen::Matrix<double, 11, 1> jtr;
+    nd::detail::normalEquations(j.data(), r.data(), rows, 11, jtj.data(), jtr.data());
+    const Eigen::Matrix<double, 11, 11> expected = j.transpose() * j;
+    const Eigen::Matrix<double, 11, 1> expected_r = j.transpose() * r;
+    EXPECT_LT((jtj - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
+        << rows << " rows";
+    EXPECT_LT((jtr - expected_r).cwiseAbs().maxCoeff(),
+              1e-12 * (1 + expected_r.cwiseAbs().maxCoeff()))
+        << rows << " rows";
+    EXPECT_TRUE(jtj == jtj.transpose()) << rows << " rows";
+  }
+}
 
 TEST(LeastSquares, SeparableMinimaAreTheTargetsClampedToTheBox) {
   const FitVector lo = filled(-1.0), hi = filled(1.0);
