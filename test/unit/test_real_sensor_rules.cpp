@@ -76,6 +76,25 @@ auto bodyTop(const Eigen::Vector3d& at, unsigned seed) {
   };
 }
 
+/// The reference sweep from (0, 0, 0.6) and the current one from 2 m further along x, each
+/// with the robot's body top below its sensor (their indices: body_ref, body_cur); `objects`
+/// stand in the current corridor.
+struct MovedRobot {
+  std::vector<int> body_ref, body_cur;
+  Cloud ref, cur;
+};
+MovedRobot movedRobot(std::vector<synthetic::AlignedBox> objects = {}) {
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  MovedRobot m;
+  m.ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &m.body_ref);
+  m.cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &m.body_cur, std::move(objects));
+  return m;
+}
+
+/// A new box 0.8 m in front of the current sensor of movedRobot().
+const synthetic::AlignedBox kBoxAhead{Eigen::Vector3d(2.8, -0.2, 0.0),
+                                      Eigen::Vector3d(3.1, 0.2, 0.5)};
+
 /// How many of the points `indices` the mask marks.
 std::size_t markedAmong(const std::vector<std::uint8_t>& mask, const std::vector<int>& indices) {
   std::size_t n = 0;
@@ -120,7 +139,7 @@ TEST(UpDirection, AutoFindsTheFloorOfARotatedSweep) {
   const synthetic::Scene s = corridor(3);
   Cloud c = s.cloud;
   setSensorOrigin(c, Eigen::Vector3f(0, 0, 0.6));
-  for (const Eigen::Vector3d axis : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0.3, 1, 0.2)}) {
+  for (const Eigen::Vector3d& axis : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0.3, 1, 0.2)}) {
     for (const double deg : {0.0, 20.0, 40.0}) {
       const Eigen::Matrix3d R(Eigen::AngleAxisd(deg * M_PI / 180, axis.normalized()));
       const UpEstimate e = resolveUp(parseUp("auto"), rotated(c, R));
@@ -200,24 +219,20 @@ TEST(UpDirection, RotatedInputGivesTheSameLabels) {
 // returns are marked in both clouds, a new object near the robot is not; from the same pose
 // nothing is.
 TEST(SelfReturns, BodyMarkedStaticSceneKept) {
-  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
-  std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
   // A new box 0.8 m in front of the current sensor: never a self-return above the floor
   // band (its lowest centimetres, within about one sampling spacing of the floor the robot
   // moved along, match the floor in both frames and are taken like the floor).
-  const Cloud cur =
-      sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur,
-                         {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
+  const MovedRobot m = movedRobot({kBoxAhead});
+  const Cloud &ref = m.ref, &cur = m.cur;
   PreprocessParams p;
   const SelfReturns s = findSelfReturns(ref, cur, p);
   ASSERT_TRUE(s.checked);
-  EXPECT_GE(markedAmong(s.current, body_cur), body_cur.size() * 95 / 100);
+  EXPECT_GE(markedAmong(s.current, m.body_cur), m.body_cur.size() * 95 / 100);
   const auto [box_points, box_marked] = markedInside(
       cur, s.current, Eigen::Vector3f(2.79f, -0.21f, 0.08f), Eigen::Vector3f(3.11f, 0.21f, 0.51f));
   EXPECT_GT(box_points, 100u);
   EXPECT_EQ(box_marked, 0u) << "points of a new object taken for the robot";
-  EXPECT_GE(markedAmong(s.reference, body_ref), body_ref.size() * 95 / 100);
+  EXPECT_GE(markedAmong(s.reference, m.body_ref), m.body_ref.size() * 95 / 100);
   // Same pose: everything near the sensor matches in the map frame too: nothing marked.
   const SelfReturns same = findSelfReturns(ref, ref, p);
   EXPECT_EQ(same.current_count, 0u);
@@ -231,10 +246,8 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
 // A sweep whose robot returns were found is pre-processed again without them: its stage
 // times list those stages twice, and their totals count both runs.
 TEST(SelfReturns, SweepIsSimplifiedAgainWithoutThemAndBothRunsAreTimed) {
-  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
-  std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
-  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
+  const MovedRobot m = movedRobot();
+  const Cloud &ref = m.ref, &cur = m.cur;
   Params p;
   p.superquadric.enabled = false;
   Pipeline pipeline(p);
@@ -243,8 +256,8 @@ TEST(SelfReturns, SweepIsSimplifiedAgainWithoutThemAndBothRunsAreTimed) {
   std::size_t self_returns = 0;
   for (const auto& [stage, n] : r.point_counts)
     if (stage == "self_returns") self_returns = n;
-  EXPECT_GE(self_returns, body_cur.size() * 95 / 100);
-  for (int i : body_cur) EXPECT_EQ(r.labels[i], 0) << "robot return " << i << " labelled";
+  EXPECT_GE(self_returns, m.body_cur.size() * 95 / 100);
+  for (int i : m.body_cur) EXPECT_EQ(r.labels[i], 0) << "robot return " << i << " labelled";
   std::map<std::string, int> runs;
   std::map<std::string, double> sum;
   for (const StageTiming& t : r.timings) ++runs[t.stage], sum[t.stage] += t.ms;
@@ -266,10 +279,8 @@ TEST(SelfReturns, SweepIsSimplifiedAgainWithoutThemAndBothRunsAreTimed) {
 // for every sweep that uses it, from several threads at once, and is left aside when the
 // parameters it was made with differ or the sweep did not move.
 TEST(SelfReturns, PreparedReferenceGivesTheSameMarks) {
-  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
-  std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
-  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
+  const MovedRobot m = movedRobot();
+  const Cloud &ref = m.ref, &cur = m.cur;
   PreprocessParams p;
   p.min_range_m = 0.2;
   const SelfReturnReference prepared(ref, p);
@@ -310,12 +321,9 @@ TEST(SelfReturns, PreparedReferenceGivesTheSameMarks) {
 // reference point (repeats included, as a reference model has it): the marks are the same
 // as with the index built over the distinct points.
 TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
-  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
-  std::vector<int> body_ref, body_cur;
-  Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
-  const Cloud cur =
-      sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur,
-                         {{Eigen::Vector3d(2.8, -0.2, 0.0), Eigen::Vector3d(3.1, 0.2, 0.5)}});
+  MovedRobot m = movedRobot({kBoxAhead});
+  Cloud& ref = m.ref;
+  const Cloud& cur = m.cur;
   // Every tenth reference point repeated, one missing.
   for (std::size_t i = 0, n = ref.size(); i < n; i += 10) ref.push_back(ref[i]);
   ref.push_back(PointT(NAN, NAN, NAN));
@@ -328,7 +336,7 @@ TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
       findSelfReturns(ref, cur, p, 0.05,
                       [&index](const Eigen::Vector3f& q, double r) { return index.within(q, r); });
   ASSERT_TRUE(kept.checked);
-  EXPECT_GE(markedAmong(kept.current, body_cur), body_cur.size() * 95 / 100);
+  EXPECT_GE(markedAmong(kept.current, m.body_cur), m.body_cur.size() * 95 / 100);
   EXPECT_EQ(kept.current, built.current);
   EXPECT_EQ(kept.reference, built.reference);
   EXPECT_EQ(kept.current_count, built.current_count);
@@ -352,7 +360,7 @@ TEST(SelfReturns, KeptReferenceIndexGivesTheSameMarks) {
       ref, cur_repeated, p, 0.05,
       [&index](const Eigen::Vector3f& q, double r) { return index.within(q, r); },
       [&pre](const Eigen::Vector3f& q, double r) { return pre.distinct_index->within(q, r); });
-  EXPECT_GE(markedAmong(both.reference, body_ref), body_ref.size() * 95 / 100);
+  EXPECT_GE(markedAmong(both.reference, m.body_ref), m.body_ref.size() * 95 / 100);
   EXPECT_EQ(both.current, plain.current);
   EXPECT_EQ(both.reference, plain.reference);
 }
@@ -367,10 +375,8 @@ TEST(SelfReturns, RepeatedPointsChangeNothing) {
     d.width = d.size(), d.height = 1;
     return d;
   };
-  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
-  std::vector<int> body_ref, body_cur;
-  const Cloud ref = sweepWithRobotPart(at_ref, 1, bodyTop(at_ref, 1), &body_ref);
-  const Cloud cur = sweepWithRobotPart(at_cur, 2, bodyTop(at_cur, 2), &body_cur);
+  const MovedRobot m = movedRobot();
+  const Cloud &ref = m.ref, &cur = m.cur;
   PreprocessParams p;
   const SelfReturns once = findSelfReturns(ref, cur, p);
   const SelfReturns doubled = findSelfReturns(twice(ref), twice(cur), p);
@@ -386,7 +392,7 @@ TEST(SelfReturns, RepeatedPointsChangeNothing) {
     ASSERT_EQ(doubled.reference[i], once.reference[i]) << i;
     ASSERT_EQ(doubled.reference[i + ref.size()], once.reference[i]) << i;
   }
-  EXPECT_GE(markedAmong(doubled.current, body_cur), body_cur.size() * 95 / 100);
+  EXPECT_GE(markedAmong(doubled.current, m.body_cur), m.body_cur.size() * 95 / 100);
   EXPECT_EQ(doubled.current_count, 2 * once.current_count);
 }
 
