@@ -390,7 +390,8 @@ void markNewlyVisible(Detection& d) {
   const double tau = d.tau;
   d.result.newly_visible = newlyVisible(
       *d.current, d.result.labels, ref.visibility, d.params.visibility.margin_factor * tau,
-      [&ref, tau](const Eigen::Vector3f& p) { return !ref.points.within(p, tau); });
+      [&ref, tau](const Eigen::Vector3f& p) { return !ref.points.within(p, tau); },
+      d.params.compute.resolved());
   d.timer.lap("newly_visible");
 }
 

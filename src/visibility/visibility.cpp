@@ -1,5 +1,7 @@
 #include "novelty_detection/visibility/visibility.h"
 
+#include "common/parallel.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -211,6 +213,24 @@ Visibility RangeImage::classify(const Eigen::Vector3f& p, double margin_m,
   if (r < near - margin_m) return Visibility::kFree;
   if (r > far + margin_m) return Visibility::kOccluded;
   return Visibility::kOccupied;
+}
+
+std::vector<std::uint8_t> newlyVisible(
+    const Cloud& current, const std::vector<int>& labels, const ReferenceVisibility& reference,
+    double margin_m, const std::function<bool(const Eigen::Vector3f&)>& far_from_map, int threads) {
+  std::vector<std::uint8_t> out(current.size(), 0);
+  if (reference.empty()) return out;
+  // Blocks of consecutive points, each writing only its own slots.
+  constexpr int kBlock = 2048;
+  detail::parallelForBlocks(static_cast<int>(current.size()), kBlock, threads, [&](int i) {
+    if (labels[i] != 0) return;
+    const Eigen::Vector3f p = current[i].getVector3fMap();
+    if (!p.allFinite()) return;
+    const Visibility v = reference.classify(p, margin_m, RangeImage::Neighbourhood::kOwnCell);
+    if (v != Visibility::kOccluded && v != Visibility::kUnknown) return;
+    if (far_from_map(p)) out[i] = 1;
+  });
+  return out;
 }
 
 }  // namespace novelty_detection

@@ -377,6 +377,8 @@ TEST(Pipeline, ResultDoesNotDependOnThreadCount) {
     results[k] = pipeline.detect(s.current);
   }
   ASSERT_GE(results[0].disappeared_superquadrics.size(), 1u);
+  // The wall behind the removed object is newly visible (classified in parallel blocks).
+  EXPECT_GT(std::count(results[0].newly_visible.begin(), results[0].newly_visible.end(), 1), 50);
   for (int k = 1; k < 3; ++k) {
     ASSERT_EQ(results[0].disappeared_superquadrics.size(),
               results[k].disappeared_superquadrics.size());

@@ -34,6 +34,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -155,22 +156,12 @@ inline bool novelCandidate(bool have_visibility, Visibility v, bool explained,
 /// (labels[i] == 0), farther than the novelty distance from every reference point
 /// (`far_from_map(p)` says so: a search may stop at the first map point that close), and in
 /// space the reference did not observe (occluded or unknown in `reference`, with margin
-/// `margin_m`). All zeros when `reference` is empty.
-template <class FarFromMap>
-std::vector<std::uint8_t> newlyVisible(const Cloud& current, const std::vector<int>& labels,
-                                       const ReferenceVisibility& reference, double margin_m,
-                                       FarFromMap&& far_from_map) {
-  std::vector<std::uint8_t> out(current.size(), 0);
-  if (reference.empty()) return out;
-  for (std::size_t i = 0; i < current.size(); ++i) {
-    if (labels[i] != 0) continue;
-    const Eigen::Vector3f p = current[i].getVector3fMap();
-    if (!p.allFinite()) continue;
-    const Visibility v = reference.classify(p, margin_m, RangeImage::Neighbourhood::kOwnCell);
-    if (v != Visibility::kOccluded && v != Visibility::kUnknown) continue;
-    if (far_from_map(p)) out[i] = 1;
-  }
-  return out;
-}
+/// `margin_m`). All zeros when `reference` is empty. The points are classified on up to
+/// `threads` threads (`far_from_map` must be safe to call concurrently); the result does not
+/// depend on it.
+std::vector<std::uint8_t> newlyVisible(
+    const Cloud& current, const std::vector<int>& labels, const ReferenceVisibility& reference,
+    double margin_m, const std::function<bool(const Eigen::Vector3f&)>& far_from_map,
+    int threads = 1);
 
 }  // namespace novelty_detection
