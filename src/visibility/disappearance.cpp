@@ -4,6 +4,7 @@
 #include <exception>
 #include <limits>
 
+#include "common/parallel.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/visibility/visibility.h"
@@ -25,10 +26,18 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   const RangeImage& image = current_image ? *current_image : own;
   if (image.empty()) return false;
   const double margin = params.visibility.disappearance_margin_factor * tau_m;
+  // Each candidate classified on its own (blocks of them on compute/threads), then taken in
+  // order.
+  std::vector<char> free(candidates.size(), 0);
+  constexpr int kBlock = 2048;
+  detail::parallelForBlocks(
+      static_cast<int>(candidates.size()), kBlock, params.compute.resolved(), [&](int k) {
+        free[k] =
+            image.classify(reference[candidates[k]].getVector3fMap(), margin) == Visibility::kFree;
+      });
   Indices seen_through;
-  for (int i : candidates)
-    if (image.classify(reference[i].getVector3fMap(), margin) == Visibility::kFree)
-      seen_through.push_back(i);
+  for (std::size_t k = 0; k < candidates.size(); ++k)
+    if (free[k]) seen_through.push_back(candidates[k]);
   // Connected pieces, then pieces whose bounding boxes lie within merge_gap_factor link
   // radii merge: one object seen through the gaps between the current sweep's lines (as
   // for the novelty segments, without the Gaussian ownership, which the reference lacks).

@@ -395,6 +395,8 @@ TEST(Pipeline, ResultDoesNotDependOnThreadCount) {
     // The distances to the map (tau from their sample) are measured in parallel blocks.
     EXPECT_EQ(results[0].tau_m, results[k].tau_m);
     EXPECT_EQ(results[0].newly_visible, results[k].newly_visible);
+    // The map's points the sweep saw through are classified in parallel blocks too.
+    EXPECT_EQ(results[0].disappeared_labels, results[k].disappeared_labels);
   }
   EXPECT_EQ(results[0].labels, results[1].labels);
   ASSERT_EQ(results[0].superquadrics.size(), results[1].superquadrics.size());
