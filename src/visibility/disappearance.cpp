@@ -28,16 +28,16 @@ bool findDisappearances(const Params& params, const Cloud& reference, const Indi
   const double margin = params.visibility.disappearance_margin_factor * tau_m;
   // Each candidate classified on its own (blocks of them on compute/threads), then taken in
   // order.
-  std::vector<char> free(candidates.size(), 0);
+  std::vector<char> seen_free(candidates.size(), 0);
   constexpr int kBlock = 2048;
   detail::parallelForBlocks(
       static_cast<int>(candidates.size()), kBlock, params.compute.resolved(), [&](int k) {
-        free[k] =
+        seen_free[k] =
             image.classify(reference[candidates[k]].getVector3fMap(), margin) == Visibility::kFree;
       });
   Indices seen_through;
   for (std::size_t k = 0; k < candidates.size(); ++k)
-    if (free[k]) seen_through.push_back(candidates[k]);
+    if (seen_free[k]) seen_through.push_back(candidates[k]);
   // Connected pieces, then pieces whose bounding boxes lie within merge_gap_factor link
   // radii merge: one object seen through the gaps between the current sweep's lines (as
   // for the novelty segments, without the Gaussian ownership, which the reference lacks).
