@@ -28,7 +28,6 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
-#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -71,8 +70,7 @@ struct Scene {
 /// Per-scene measurements.
 struct Run {
   std::size_t points = 0;
-  std::map<std::string, double> stage_ms;
-  std::vector<std::string> stage_order;  ///< pipeline order
+  std::vector<StageTiming> stages;  ///< stageTotals(): each stage once, in pipeline order
   double wall_ms = 0.0, cpu_ms = 0.0, reference_ms = 0.0;
   bool success = false;
   double f1 = 0.0;
@@ -143,10 +141,7 @@ Run runScene(const Params& params, const Scene& s) {
   t1 = std::chrono::steady_clock::now();
   run.cpu_ms = cpuMs() - c0;
   run.wall_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  for (const auto& t : stageTotals(r.timings)) {
-    run.stage_order.push_back(t.stage);
-    run.stage_ms[t.stage] = t.ms;
-  }
+  run.stages = stageTotals(r.timings);
   const SceneScore sc = scoreLabels(r.labels, s.truth);
   run.success = sc.success;
   run.f1 = sc.f1;
@@ -182,8 +177,10 @@ Row summarize(const std::string& dataset, const std::string& mode, const std::ve
   for (const auto& st : stage_order) {
     std::vector<double> v;
     for (const Run& r : runs) {
-      auto it = r.stage_ms.find(st);
-      if (r.error.empty()) v.push_back(it == r.stage_ms.end() ? 0.0 : it->second);
+      if (!r.error.empty()) continue;
+      const auto it = std::find_if(r.stages.begin(), r.stages.end(),
+                                   [&st](const StageTiming& t) { return t.stage == st; });
+      v.push_back(it == r.stages.end() ? 0.0 : it->ms);
     }
     row.stages.emplace_back(st, median(v));
   }
@@ -281,9 +278,9 @@ int main(int argc, char** argv) try {
   std::vector<std::string> stage_order;
   auto addStages = [&](const std::vector<Run>& runs) {
     for (const Run& r : runs)
-      for (const auto& st : r.stage_order)
-        if (std::find(stage_order.begin(), stage_order.end(), st) == stage_order.end())
-          stage_order.push_back(st);
+      for (const StageTiming& t : r.stages)
+        if (std::find(stage_order.begin(), stage_order.end(), t.stage) == stage_order.end())
+          stage_order.push_back(t.stage);
   };
   auto evaluate = [&](const std::string& dataset, const std::vector<Scene>& scenes) {
     std::vector<std::vector<Run>> per_mode(modes.size());

@@ -1,10 +1,10 @@
 #include "novelty_detection/visibility/visibility.h"
 
-#include "common/parallel.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "common/parallel.h"
 
 namespace novelty_detection {
 namespace {

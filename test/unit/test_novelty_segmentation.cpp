@@ -93,6 +93,13 @@ struct StackedScene {
     if (by >= 0) novel.push_back(static_cast<int>(cloud.size())), owner.push_back(by);
     cloud.push_back(PointT(x, y, z));
   }
+  /// Every point is kept; the sensor at `origin`.
+  void finish(const Eigen::Vector3f& origin) {
+    cloud.width = cloud.size(), cloud.height = 1;
+    all.resize(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) all[i] = static_cast<int>(i);
+    cloud.sensor_origin_.head<3>() = origin;
+  }
 };
 
 /// Adds a wall of 5 cm samples at x = 5 (y -1..1, z from z0, `rows` + 1 rows) seen from
@@ -111,14 +118,6 @@ void addWallBehind(StackedScene* s, const Eigen::Vector3f& origin, float z0, int
     }
 }
 
-/// Every point is kept; the sensor at `origin`.
-void finishScene(StackedScene* s, const Eigen::Vector3f& origin) {
-  s->cloud.width = s->cloud.size(), s->cloud.height = 1;
-  s->all.resize(s->cloud.size());
-  for (std::size_t i = 0; i < s->cloud.size(); ++i) s->all[i] = static_cast<int>(i);
-  s->cloud.sensor_origin_.head<3>() = origin;
-}
-
 StackedScene stackedPieces(bool wall) {
   StackedScene s;
   const Eigen::Vector3f origin(0.f, 0.f, 0.7f);
@@ -134,7 +133,7 @@ StackedScene stackedPieces(bool wall) {
              ((q.z() >= 0.f && q.z() <= 0.5f) || (q.z() >= 0.9f && q.z() <= 1.2f));
     });
   }
-  finishScene(&s, origin);
+  s.finish(origin);
   return s;
 }
 
@@ -199,7 +198,7 @@ StackedScene sideBySidePieces(bool beyond, bool inside) {
              ((ay >= 0.1f && ay <= 0.45f) || (inside && ay <= 0.05f));
     });
   }
-  finishScene(&s, origin);
+  s.finish(origin);
   return s;
 }
 
