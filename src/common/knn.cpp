@@ -28,10 +28,19 @@ inline void insertSorted(float d, int k, float* d2) {
 void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, int* count) const {
   const Node& node = nodes_[node_id];
   if (node.left < 0) {
-    for (int i = node.begin; i < node.end; ++i) {
-      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      const float d = dx * dx + dy * dy + dz * dz;
-      if ((*count == k && d >= d2[k - 1]) || i == self) continue;
+    // Only the points below the k-th distance as it stood on entering the leaf are looked
+    // at, in order: most points of a leaf other than the query's own are farther.
+    float dd[kLeafSize];
+    const bool full = *count == k;
+    const float bound = d2[k - 1];
+    unsigned below =
+        scanLeaf(node, q, dd, [full, bound](float d) { return !(full && d >= bound); });
+    if (self >= node.begin && self < node.end) below &= ~(1u << (self - node.begin));
+    while (below != 0) {
+      const int j = __builtin_ctz(below);
+      below &= below - 1;
+      const float d = dd[j];
+      if (*count == k && d >= d2[k - 1]) continue;
       if (k == 8) {
         insertSorted<8>(d, d2);
       } else {
@@ -188,10 +197,10 @@ void KnnTree::visitWithin(const Eigen::Vector3f& p, double radius, Whole whole, 
       stack[top++] = node.left;
       continue;
     }
-    for (int i = node.begin; i < node.end; ++i) {
-      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      if (dx * dx + dy * dy + dz * dz < r2) point(i);
-    }
+    float dd[kLeafSize];
+    for (unsigned bits = scanLeaf(node, q, dd, [r2](float d) { return d < r2; }); bits != 0;
+         bits &= bits - 1)
+      point(node.begin + __builtin_ctz(bits));
   }
 }
 
@@ -251,8 +260,18 @@ KnnTree::Moments KnnTree::momentsWithin(const Eigen::Vector3f& p, double radius)
 
 bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
   // nearestDistance()'s test: the square root of the float squared distance, in double.
-  return radius >= 0.0 &&
-         atLeast(p, 1, [radius](float d2) { return std::sqrt(static_cast<double>(d2)) <= radius; });
+  // As a float bound: the largest float t with sqrt(t) <= radius (sqrt is monotonic), so
+  // that a leaf's test is one comparison per point.
+  if (!(radius >= 0.0)) return false;
+  const float inf = std::numeric_limits<float>::infinity();
+  float t = inf;
+  if (std::isfinite(radius)) {
+    t = static_cast<float>(std::min(radius * radius, double{std::numeric_limits<float>::max()}));
+    while (t > 0.f && !(std::sqrt(static_cast<double>(t)) <= radius)) t = std::nextafter(t, 0.f);
+    while (std::sqrt(static_cast<double>(std::nextafter(t, inf))) <= radius)
+      t = std::nextafter(t, inf);
+  }
+  return atLeast(p, 1, [t](float d2) { return d2 <= t; });
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {

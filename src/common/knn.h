@@ -131,6 +131,24 @@ class KnnTree {
   static void buildSubtree(std::vector<Item>& items, int begin, int end, std::vector<Node>* nodes,
                            std::vector<int>* leaf_of);
   static constexpr int kLeafSize = 16;
+  static_assert(kLeafSize <= 32, "scanLeaf() gives one bit per point of a leaf");
+  /// The squared distances from q to the points of the leaf `node` (in tree order) into
+  /// dd[0, size), in one pass the compiler vectorises, and a bit j per point whose distance
+  /// passes `pass`: the per-point branches of a scan are taken only where points pass.
+  template <class Pass>
+  unsigned scanLeaf(const Node& node, const float* q, float* dd, Pass pass) const {
+    const int m = node.end - node.begin;
+    const float* x = x_.data() + node.begin;
+    const float* y = y_.data() + node.begin;
+    const float* z = z_.data() + node.begin;
+    for (int j = 0; j < m; ++j) {
+      const float dx = x[j] - q[0], dy = y[j] - q[1], dz = z[j] - q[2];
+      dd[j] = dx * dx + dy * dy + dz * dz;
+    }
+    unsigned bits = 0;
+    for (int j = 0; j < m; ++j) bits |= static_cast<unsigned>(pass(dd[j])) << j;
+    return bits;
+  }
   /// Median splits: 2^kMaxDepth leaves hold far more points than an index can address.
   static constexpr int kMaxDepth = 40;
 
@@ -183,10 +201,9 @@ bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
       if (close(left_first ? dl : dr)) stack[top++] = left_first ? node.left : node.right;
       continue;
     }
-    for (int i = node.begin; i < node.end; ++i) {
-      const float dx = x_[i] - q[0], dy = y_[i] - q[1], dz = z_[i] - q[2];
-      if (close(dx * dx + dy * dy + dz * dz) && ++found >= k) return true;
-    }
+    float dd[kLeafSize];
+    found += __builtin_popcount(scanLeaf(node, q, dd, close));
+    if (found >= k) return true;
   }
   return false;
 }

@@ -313,6 +313,11 @@ TEST(KnnTree, PointQueriesMatchBruteForce) {
   EXPECT_FALSE(empty.anyWithin(pts[0], 1.0));
   EXPECT_FALSE(tree.anyWithin(Eigen::Vector3f(50.f, 50.f, 50.f), 1.0));
   EXPECT_FALSE(tree.anyWithin(pts[0], std::nan("")));
+  // Radii whose square a float cannot hold reach every point.
+  EXPECT_TRUE(tree.anyWithin(Eigen::Vector3f(50.f, 50.f, 50.f), 1e30));
+  EXPECT_TRUE(
+      tree.anyWithin(Eigen::Vector3f(50.f, 50.f, 50.f), std::numeric_limits<double>::infinity()));
+  EXPECT_TRUE(tree.anyWithin(pts[0], 0.0));  // an indexed point is within 0 of itself
   EXPECT_EQ(empty.kthNearestDistance(pts[0], 1), std::numeric_limits<double>::infinity());
   empty.within(pts[0], 1.0, &none);
   EXPECT_TRUE(none.empty());
