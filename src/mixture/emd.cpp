@@ -1,5 +1,7 @@
 #include "novelty_detection/mixture/emd.h"
 
+#include "mixture/transport_simplex.h"
+
 #include <lemon/network_simplex.h>
 #include <lemon/smart_graph.h>
 #include <Eigen/Eigenvalues>
@@ -78,6 +80,12 @@ Eigen::MatrixXd groundDistanceMatrix(const Gmm& a, const Gmm& b, GroundDistance 
   return d;
 }
 
+struct EmdBasis {
+  bool transposed = false;  ///< solved with the second mixture supplying
+  detail::TransportBasis basis;
+};
+
+/// LEMON's network simplex, for the solves the dual simplex gives up (transport_simplex.h).
 struct EmdSolver::Network {
   using Graph = lemon::SmartDigraph;
   using Simplex = lemon::NetworkSimplex<Graph, double, double>;
@@ -163,17 +171,18 @@ EmdSolver::~EmdSolver() = default;
 EmdSolver::EmdSolver(EmdSolver&&) noexcept = default;
 EmdSolver& EmdSolver::operator=(EmdSolver&&) noexcept = default;
 
-EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
-                           bool with_flows) const {
-  return solve(p, q, with_flows, false);
+EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, bool with_flows,
+                           const EmdResult* from) const {
+  return solve(p, q, with_flows, false, from);
 }
 
-EmdResult EmdSolver::solveWithPrices(const Eigen::VectorXd& p, const Eigen::VectorXd& q) const {
-  return solve(p, q, false, true);
+EmdResult EmdSolver::solveWithPrices(const Eigen::VectorXd& p, const Eigen::VectorXd& q,
+                                     const EmdResult* from) const {
+  return solve(p, q, false, true, from);
 }
 
 EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, bool with_flows,
-                           bool with_prices) const {
+                           bool with_prices, const EmdResult* from) const {
   checkWeights(p, d_.rows(), "first mixture");
   checkWeights(q, d_.cols(), "second mixture");
   EmdResult r;
@@ -182,12 +191,40 @@ EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, b
     if (with_flows) r.flows = Eigen::MatrixXd::Zero(d_.rows(), d_.cols());
     return r;  // nothing can move: distance 0 by convention
   }
-  if (ps <= qs) {
-    if (!forward_) forward_ = std::make_unique<Network>(d_);
-    return forward_->solve(p, q, with_flows, with_prices, false);
+  // The lighter side supplies; the other accepts a hair more than its weights, so that
+  // round-off never makes equal masses infeasible.
+  const bool transpose = !(ps <= qs);
+  const Eigen::VectorXd& s = transpose ? q : p;
+  const Eigen::VectorXd& t = transpose ? p : q;
+  const double ss = s.sum(), ts = t.sum(), slack = 1.0 + 1e-12;
+  Eigen::VectorXd accept = t * slack;
+  if (ss > ts * slack) accept *= ss / (ts * slack) * (1.0 + 1e-12);  // nearly equal masses
+  if (transpose && d_transposed_.size() == 0) d_transposed_ = d_.transpose();
+  const detail::TransportBasis* start =
+      from && from->basis && from->basis->transposed == transpose ? &from->basis->basis : nullptr;
+  detail::TransportSolution solution =
+      detail::solveTransport(transpose ? d_transposed_ : d_, s, accept, start, with_flows);
+  if (!solution.optimal) {
+    std::unique_ptr<Network>& network = transpose ? backward_ : forward_;
+    if (!network) network = std::make_unique<Network>(transpose ? d_transposed_ : d_);
+    return network->solve(s, t, with_flows, with_prices, transpose);
   }
-  if (!backward_) backward_ = std::make_unique<Network>(d_.transpose());
-  return backward_->solve(q, p, with_flows, with_prices, true);
+  r.cost = solution.cost;
+  r.flow = ss;
+  r.distance = r.cost / ss;
+  if (with_flows) {
+    if (transpose) {
+      r.flows = solution.flows.transpose();
+    } else {
+      r.flows = std::move(solution.flows);
+    }
+  }
+  if ((with_flows || with_prices) && !transpose) r.capacity_prices = std::move(solution.prices);
+  auto basis = std::make_shared<EmdBasis>();
+  basis->transposed = transpose;
+  basis->basis = std::move(solution.basis);
+  r.basis = std::move(basis);
+  return r;
 }
 
 double emd(const Gmm& a, const Gmm& b, GroundDistance type) {

@@ -126,7 +126,7 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
         EmdResult result;  // an emptied Theta has nothing left to move
         if (mass - p[i] > 0) {
           w[i] = 0.0;
-          result = lane_solver.solveWithPrices(w, q);
+          result = lane_solver.solveWithPrices(w, q, &full);
           w[i] = p[i];
           ++solved[static_cast<std::size_t>(lane)];
           if (result.capacity_prices.size() == q.size())
@@ -158,7 +158,7 @@ SelectionResult GreedyNoveltySelector::select(const Eigen::VectorXd& p_in, const
     out.decrease.push_back(decrease);
     out.emd_trace.push_back(best);
     current = best;
-    full = solver.solve(p, q, true);
+    full = solver.solve(p, q, true, &full);
   }
   out.emd_after = current;
   return out;

@@ -6,6 +6,7 @@
 #include <limits>
 #include <random>
 
+#include "../../src/mixture/transport_simplex.h"
 #include "novelty_detection/mixture/emd.h"
 
 using namespace novelty_detection;
@@ -220,6 +221,94 @@ TEST(Emd, CapacityPricesBoundEveryRemoval) {
                 .solve(Eigen::VectorXd::Constant(1, 2.0), Eigen::VectorXd::Ones(1), true)
                 .capacity_prices.size(),
             0);
+}
+
+// The selection's problems: the round's weights with one Gaussian emptied, solved from the
+// round's optimal basis. The same optimum as a cold solve (and the independent solver), in a
+// few pivots; degenerate weights (empty sources, empty sinks, equal masses, equal costs) too.
+TEST(Emd, WarmStartsReachTheSameOptimumInFewPivots) {
+  namespace dt = novelty_detection::detail;
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> w(0.0, 1.0);
+  std::vector<int> warm_pivots, cold_pivots;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 10 + trial % 30, m = 8 + (3 * trial) % 25;
+    Eigen::MatrixXd d(n, m);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < m; ++j) d(i, j) = trial % 5 == 4 ? std::floor(3 * w(rng)) : 5 * w(rng);
+    Eigen::VectorXd p(n), q(m);
+    for (int i = 0; i < n; ++i) p[i] = trial % 4 == 1 && i % 3 == 0 ? 0.0 : w(rng);
+    for (int j = 0; j < m; ++j) q[j] = trial % 4 == 2 && j % 4 == 0 ? 0.0 : w(rng);
+    q *= (trial % 2 ? 1.0 : 1.3) * p.sum() / q.sum();
+    q *= 1.0 + 1e-9;  // the lighter side first
+    const dt::TransportSolution full = dt::solveTransport(d, p, q, nullptr, true);
+    ASSERT_TRUE(full.optimal) << "trial " << trial;
+    cold_pivots.push_back(full.pivots);
+    EXPECT_NEAR(full.cost / p.sum(), referenceEmd(p, q, d), 1e-9) << "trial " << trial;
+    EXPECT_NEAR(full.flows.sum(), p.sum(), 1e-12);
+    EXPECT_TRUE((full.flows.array() >= 0.0).all());
+    EXPECT_TRUE(((full.flows.colwise().sum().transpose() - q).array() <= 1e-12).all());
+    for (int i = 0; i < n; ++i) {
+      Eigen::VectorXd t = p;
+      t[i] = 0.0;
+      const dt::TransportSolution cold = dt::solveTransport(d, t, q, nullptr, false);
+      const dt::TransportSolution warm = dt::solveTransport(d, t, q, &full.basis, false);
+      ASSERT_TRUE(cold.optimal && warm.optimal) << "trial " << trial << " removing " << i;
+      EXPECT_NEAR(warm.cost, cold.cost, 1e-12 * std::max(1.0, cold.cost));
+      if (p[i] > 0) warm_pivots.push_back(warm.pivots);
+      // The prices of a warm start bound the cost as the cold ones do (strong duality).
+      const Eigen::VectorXd alpha = (d.rowwise() + warm.prices.transpose()).rowwise().minCoeff();
+      EXPECT_NEAR(t.dot(alpha) - q.dot(warm.prices), warm.cost, 1e-9);
+    }
+  }
+  auto median = [](std::vector<int> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  EXPECT_LE(median(warm_pivots), 3);
+  EXPECT_GE(median(cold_pivots), 5 * median(warm_pivots));
+  // A basis of other sizes is not a start: the solve is cold.
+  Eigen::MatrixXd d = Eigen::MatrixXd::Ones(2, 3);
+  const dt::TransportSolution other =
+      dt::solveTransport(Eigen::MatrixXd::Ones(3, 3), Eigen::VectorXd::Ones(3),
+                         Eigen::VectorXd::Ones(3), nullptr, false);
+  const dt::TransportSolution cold =
+      dt::solveTransport(d, Eigen::VectorXd::Ones(2), Eigen::VectorXd::Ones(3), nullptr, false);
+  const dt::TransportSolution warm = dt::solveTransport(
+      d, Eigen::VectorXd::Ones(2), Eigen::VectorXd::Ones(3), &other.basis, false);
+  ASSERT_TRUE(cold.optimal && warm.optimal);
+  EXPECT_EQ(warm.cost, cold.cost);
+  EXPECT_EQ(warm.cost, 2.0);
+}
+
+// Through EmdSolver: a solve from another result equals the cold solve, transposed too.
+TEST(Emd, SolvesFromAnotherResultEqualColdSolves) {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> w(0.0, 1.0);
+  const int n = 30, m = 20;
+  Eigen::MatrixXd d(n, m);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) d(i, j) = 5 * w(rng);
+  Eigen::VectorXd p(n), q(m);
+  for (int i = 0; i < n; ++i) p[i] = w(rng);
+  for (int j = 0; j < m; ++j) q[j] = w(rng);
+  q *= p.sum() / q.sum();
+  const EmdSolver solver(d);
+  EmdResult round = solver.solve(p, q, true);
+  ASSERT_TRUE(round.basis != nullptr);
+  for (int k = 0; k < 10; ++k) {
+    p[k] = 0.0;  // the greedy selection's rounds
+    const EmdResult warm = solver.solve(p, q, true, &round);
+    const EmdResult cold = EmdSolver(d).solve(p, q, true);
+    EXPECT_NEAR(warm.distance, cold.distance, 1e-12) << "round " << k;
+    EXPECT_NEAR(warm.distance, referenceEmd(p, q, d), 1e-9) << "round " << k;
+    EXPECT_EQ(warm.capacity_prices.size(), m);
+    round = warm;
+  }
+  // The heavier first side (solved transposed) from a forward result: a cold start.
+  Eigen::VectorXd heavy = 2.0 * q;
+  const EmdResult back = EmdSolver(d.transpose()).solve(heavy, p, false, &round);
+  EXPECT_NEAR(back.distance, referenceEmd(p, heavy, d), 1e-9);
 }
 
 TEST(Emd, RejectsBadInput) {
