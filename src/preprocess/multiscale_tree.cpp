@@ -23,17 +23,25 @@
 namespace novelty_detection {
 namespace {
 
-/// Running sums of a point set, relative to an origin o: n, sum(p - o), sum((p-o)(p-o)^T).
+/// Running sums of a point set, relative to an origin o: n, sum(p - o), sum((p-o)(p-o)^T)
+/// (its upper triangle: xx, xy, xz, yy, yz, zz; the lower one holds the same products).
 struct Moments {
   double n = 0.0;
   Eigen::Vector3d s = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d ss = Eigen::Matrix3d::Zero();
+  double ss[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
 
   void add(const Eigen::Vector3d& d) {
     n += 1.0;
     s += d;
-    ss.noalias() += d * d.transpose();
+    ss[0] += d.x() * d.x(), ss[1] += d.x() * d.y(), ss[2] += d.x() * d.z();
+    ss[3] += d.y() * d.y(), ss[4] += d.y() * d.z(), ss[5] += d.z() * d.z();
   }
+  Eigen::Matrix3d products() const {
+    Eigen::Matrix3d m;
+    m << ss[0], ss[1], ss[2], ss[1], ss[3], ss[4], ss[2], ss[4], ss[5];
+    return m;
+  }
+  double trace() const { return ss[0] + ss[3] + ss[5]; }
 };
 
 struct Stats {
@@ -47,7 +55,7 @@ Stats statsOf(const Moments& m, const Eigen::Vector3d& origin) {
   Stats st;
   const Eigen::Vector3d mean = m.s / m.n;
   st.centroid = origin + mean;
-  st.covariance = m.ss / m.n - mean * mean.transpose();
+  st.covariance = m.products() / m.n - mean * mean.transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
   es.computeDirect(st.covariance);
   st.eigenvalues = es.eigenvalues().cwiseMax(0.0);
@@ -110,7 +118,7 @@ void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
     // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
     // check runs only when the spread is at rounding level of the moments.
     const Moments& m = t.moments[id];
-    if (st.eigenvalues(2) <= 1e-10 * (m.ss.trace() / m.n) &&
+    if (st.eigenvalues(2) <= 1e-10 * (m.trace() / m.n) &&
         std::all_of(pts.begin() + node.begin, pts.begin() + node.end,
                     [&](const Eigen::Vector3d& p) { return p == pts[node.begin]; })) {
       continue;
