@@ -95,17 +95,20 @@ Refined refine(const std::vector<Eigen::Vector3d>& sample, const Eigen::Vector3d
   for (int it = 0; it < 20; ++it) {
     const double band = std::max(t, 3.0 * sigma);
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d sum2 = Eigen::Matrix3d::Zero();
+    double xx = 0.0, xy = 0.0, xz = 0.0, yy = 0.0, yz = 0.0, zz = 0.0;  // sum q q^T
     int count = 0;
     for (const auto& p : sample) {
       if (std::abs(normal.dot(p) + d) > band) continue;
       const Eigen::Vector3d q = p - centre;
       sum += q;
-      sum2.noalias() += q * q.transpose();
+      xx += q.x() * q.x(), xy += q.x() * q.y(), xz += q.x() * q.z();
+      yy += q.y() * q.y(), yz += q.y() * q.z(), zz += q.z() * q.z();
       ++count;
     }
     if (count < 3) break;
     const Eigen::Vector3d mean = sum / count;
+    Eigen::Matrix3d sum2;
+    sum2 << xx, xy, xz, xy, yy, yz, xz, yz, zz;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(sum2 / count - mean * mean.transpose());
     Eigen::Vector3d new_normal = es.eigenvectors().col(0);
@@ -212,16 +215,23 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     if (has_origin && normal.dot(origin) + d <= t) return std::nullopt;  // not below the sensor
     return Hypothesis{normal, d, 0, 0.0};
   };
+  // The sample by coordinate, for the scores: the band test lists a plane's inliers without
+  // a branch, and only their heights are then summed, in the sample's order (the same sum as
+  // adding 0 for every other point, a shorter chain of additions).
+  std::vector<double> sx(static_cast<std::size_t>(m)), sy(sx), sz(sx);
+  for (int j = 0; j < m; ++j) sx[j] = sample[j].x(), sy[j] = sample[j].y(), sz[j] = sample[j].z();
   const auto score = [&](std::vector<Hypothesis>* planes, std::size_t from) {
     detail::parallelFor(static_cast<int>(planes->size() - from), threads, [&](int k) {
       Hypothesis& h = (*planes)[from + static_cast<std::size_t>(k)];
+      const double nx = h.normal.x(), ny = h.normal.y(), nz = h.normal.z(), hd = h.d;
+      std::vector<int> inliers(static_cast<std::size_t>(m));
       int support = 0;
-      double z = 0.0;
-      for (const auto& p : sample) {
-        const bool in = std::abs(h.normal.dot(p) + h.d) <= t;
-        support += in;
-        z += in ? p.z() : 0.0;  // adding 0 leaves the sum as it is
+      for (int j = 0; j < m; ++j) {
+        inliers[support] = j;
+        support += std::abs(nx * sx[j] + ny * sy[j] + nz * sz[j] + hd) <= t;
       }
+      double z = 0.0;
+      for (int j = 0; j < support; ++j) z += sz[inliers[j]];
       h.support = support;
       h.inlier_z = support > 0 ? z / support : 0.0;
     });
