@@ -112,7 +112,9 @@ void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& point
   constexpr int kBlock = 4096;
   detail::parallelForBlocks(static_cast<int>(n), kBlock, threads, [&](int j) {
     const int e = before[static_cast<std::size_t>(j)];
-    if (lost_tree.nearestDistance(tree.point(j)) > earlier->kth[e]) {
+    // No lost point within its k-th distance (the search stops at the first one found; far
+    // from every lost point, at the root's box).
+    if (!lost_tree.anyWithin(tree.point(j), earlier->kth[e])) {
       stats->mean[j] = earlier->mean[e];
       stats->kth[j] = earlier->kth[e];
       kept_values[static_cast<std::size_t>(j)] = 1;
