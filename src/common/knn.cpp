@@ -271,7 +271,22 @@ bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
     while (std::sqrt(static_cast<double>(std::nextafter(t, inf))) <= radius)
       t = std::nextafter(t, inf);
   }
-  return atLeast(p, 1, [t](float d2) { return d2 <= t; });
+  const auto close = [t](float d2) { return d2 <= t; };
+  // The calling thread's last hit on this tree (a tree since freed may share the address:
+  // any leaf is only a first guess, the answer is the search's).
+  thread_local const KnnTree* last_tree = nullptr;
+  thread_local int last_leaf = -1;
+  if (last_tree == this && last_leaf >= 0 && static_cast<std::size_t>(last_leaf) < nodes_.size() &&
+      nodes_[last_leaf].left < 0) {
+    const float q[3] = {p.x(), p.y(), p.z()};
+    float dd[kLeafSize];
+    if (scanLeaf(nodes_[last_leaf], q, dd, close) != 0) return true;
+  }
+  int leaf = -1;
+  if (!atLeast(p, 1, close, &leaf)) return false;
+  last_tree = this;
+  last_leaf = leaf;
+  return true;
 }
 
 std::vector<double> KnnTree::kthNeighbourDistances(int k, int threads) const {

@@ -68,6 +68,8 @@ class KnnTree {
 
   /// Whether nearestDistance(p) <= radius, found without the exact nearest point: the search
   /// stops at the first point that close (the common case of a point on a mapped surface).
+  /// The leaf where the calling thread's last query on this tree found its point is looked
+  /// at first: queries from neighbouring points one after another mostly end there.
   bool anyWithin(const Eigen::Vector3f& p, double radius) const;
 
   /// Whether at least `k` indexed points q satisfy close(d2) for d2 the float squared distance
@@ -75,8 +77,10 @@ class KnnTree {
   /// in d2 (true up to some distance). The search stops at the k-th such point: with
   /// close(d2) = f(sqrt(d2)) < x this is f(kthNearestDistance(p, k)) < x, found without the
   /// k-th neighbour.
+  /// `leaf` (optional) receives the leaf node holding the k-th such point (unchanged when
+  /// there are fewer).
   template <class Close>
-  bool atLeast(const Eigen::Vector3f& p, int k, Close close) const;
+  bool atLeast(const Eigen::Vector3f& p, int k, Close close, int* leaf = nullptr) const;
 
   /// Positions of the indexed points closer than `radius` to `p` (squared distance below
   /// radius^2 in float), appended to `out` in the tree's order (the same for the same points
@@ -179,7 +183,7 @@ class KnnTree {
 };
 
 template <class Close>
-bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
+bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close, int* leaf) const {
   if (k <= 0) return true;
   if (nodes_.empty()) return false;
   const float q[3] = {p.x(), p.y(), p.z()};
@@ -191,7 +195,8 @@ bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
+    const int id = stack[--top];
+    const Node& node = nodes_[id];
     if (node.left >= 0) {
       const Node& l = nodes_[node.left];
       const Node& r = nodes_[node.right];
@@ -203,7 +208,10 @@ bool KnnTree::atLeast(const Eigen::Vector3f& p, int k, Close close) const {
     }
     float dd[kLeafSize];
     found += __builtin_popcount(scanLeaf(node, q, dd, close));
-    if (found >= k) return true;
+    if (found >= k) {
+      if (leaf) *leaf = id;
+      return true;
+    }
   }
   return false;
 }

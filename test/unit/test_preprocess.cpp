@@ -323,6 +323,44 @@ TEST(KnnTree, PointQueriesMatchBruteForce) {
   EXPECT_TRUE(none.empty());
 }
 
+// anyWithin() looks first where the thread's last query on the same tree found its point:
+// the answers do not depend on the queries before, on other trees, or on a tree freed and
+// another built in its place (with fewer nodes).
+TEST(KnnTree, AnyWithinDoesNotDependOnTheQueriesBefore) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  auto cloud = [&](int n, float scale) {
+    std::vector<Eigen::Vector3f> pts;
+    for (int k = 0; k < n; ++k) pts.emplace_back(scale * u(rng), scale * u(rng), 0.1f * u(rng));
+    return pts;
+  };
+  auto brute = [](const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& p, double r) {
+    for (const auto& x : pts)
+      if (std::sqrt(static_cast<double>((x - p).squaredNorm())) <= r) return true;
+    return false;
+  };
+  const std::vector<Eigen::Vector3f> a = cloud(4000, 1.f), b = cloud(300, 2.f);
+  const nd::detail::KnnTree ta(a), tb(b);
+  int hits = 0;
+  for (int q = 0; q < 3000; ++q) {
+    // Neighbouring queries one after another (a walk), on both trees in turn.
+    const Eigen::Vector3f p(0.3f + 0.0002f * q, 0.5f + 0.1f * std::sin(0.01f * q), 0.05f);
+    const double r = q % 4 == 0 ? 0.002 : 0.02;
+    ASSERT_EQ(ta.anyWithin(p, r), brute(a, p, r)) << "query " << q;
+    ASSERT_EQ(tb.anyWithin(p, r), brute(b, p, r)) << "query " << q;
+    hits += brute(a, p, r);
+  }
+  EXPECT_GT(hits, 1000);
+  for (int round = 0; round < 20; ++round) {
+    const std::vector<Eigen::Vector3f> c = cloud(round % 2 ? 5000 : 40, 1.f);
+    const nd::detail::KnnTree tc(c);  // often where the last one was
+    for (int q = 0; q < 50; ++q) {
+      const Eigen::Vector3f p(u(rng), u(rng), 0.05f);
+      ASSERT_EQ(tc.anyWithin(p, 0.03), brute(c, p, 0.03)) << "round " << round << " query " << q;
+    }
+  }
+}
+
 // The neighbourhood sums of the crease test: the points within() finds, counted exactly and
 // summed (whole subtrees at once after buildMoments) to the centroid and covariance a plane
 // fit over those points computes, with and without the subtree sums.
