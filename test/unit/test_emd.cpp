@@ -74,6 +74,21 @@ Gaussian gauss(double w, Eigen::Vector3d m, Eigen::Matrix3d c = Eigen::Matrix3d:
   return g;
 }
 
+/// A random problem: ground distances in [0, 5), weights in [0, 1) (drawn in that order).
+struct Problem {
+  Eigen::MatrixXd d;
+  Eigen::VectorXd p, q;
+};
+Problem randomProblem(std::mt19937& rng, int n, int m) {
+  std::uniform_real_distribution<double> w(0.0, 1.0);
+  Problem x{Eigen::MatrixXd(n, m), Eigen::VectorXd(n), Eigen::VectorXd(m)};
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) x.d(i, j) = 5 * w(rng);
+  for (int i = 0; i < n; ++i) x.p[i] = w(rng);
+  for (int j = 0; j < m; ++j) x.q[j] = w(rng);
+  return x;
+}
+
 }  // namespace
 
 TEST(Emd, HandComputedEuclideanCase) {
@@ -151,15 +166,9 @@ TEST(Emd, PartialMatchingMovesOnlyTheLighterMass) {
 TEST(Emd, MatchesIndependentSolverOnRandomCases) {
   std::mt19937 rng(17);
   std::uniform_int_distribution<int> size(1, 9);
-  std::uniform_real_distribution<double> w(0.0, 1.0);
   for (int trial = 0; trial < 200; ++trial) {
     const int n = size(rng), m = size(rng);
-    Eigen::MatrixXd d(n, m);
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < m; ++j) d(i, j) = 5 * w(rng);
-    Eigen::VectorXd p(n), q(m);
-    for (int i = 0; i < n; ++i) p[i] = w(rng);
-    for (int j = 0; j < m; ++j) q[j] = w(rng);
+    auto [d, p, q] = randomProblem(rng, n, m);
     if (trial % 3 == 0) q *= p.sum() / q.sum();  // equal masses too
     const EmdSolver solver(d);
     EXPECT_NEAR(solver.solve(p, q).distance, referenceEmd(p, q, d), 1e-9) << "trial " << trial;
@@ -172,16 +181,10 @@ TEST(Emd, MatchesIndependentSolverOnRandomCases) {
 TEST(Emd, CapacityPricesBoundEveryRemoval) {
   std::mt19937 rng(23);
   std::uniform_int_distribution<int> size(2, 12);
-  std::uniform_real_distribution<double> w(0.0, 1.0);
   int tight = 0, removals = 0;
   for (int trial = 0; trial < 200; ++trial) {
     const int n = size(rng), m = size(rng);
-    Eigen::MatrixXd d(n, m);
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < m; ++j) d(i, j) = 5 * w(rng);
-    Eigen::VectorXd p(n), q(m);
-    for (int i = 0; i < n; ++i) p[i] = w(rng);
-    for (int j = 0; j < m; ++j) q[j] = w(rng);
+    auto [d, p, q] = randomProblem(rng, n, m);
     q *= (trial % 2 ? 1.0 : 1.5) * p.sum() / q.sum();  // equal masses, or spare capacity
     const EmdSolver solver(d);
     const EmdResult full = solver.solve(p, q, true);
@@ -284,14 +287,8 @@ TEST(Emd, WarmStartsReachTheSameOptimumInFewPivots) {
 // Through EmdSolver: a solve from another result equals the cold solve, transposed too.
 TEST(Emd, SolvesFromAnotherResultEqualColdSolves) {
   std::mt19937 rng(31);
-  std::uniform_real_distribution<double> w(0.0, 1.0);
-  const int n = 30, m = 20;
-  Eigen::MatrixXd d(n, m);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j) d(i, j) = 5 * w(rng);
-  Eigen::VectorXd p(n), q(m);
-  for (int i = 0; i < n; ++i) p[i] = w(rng);
-  for (int j = 0; j < m; ++j) q[j] = w(rng);
+  const int m = 20;
+  auto [d, p, q] = randomProblem(rng, 30, m);
   q *= p.sum() / q.sum();
   const EmdSolver solver(d);
   EmdResult round = solver.solve(p, q, true);
