@@ -348,6 +348,8 @@ void completeNewObjects(Detection& d) {
         current, d.s.pre.kept, d.kept_index, current.sensor_origin_.head<3>(),
         sp.crease_radius_factor * d.link_radius, sp.crease_offset_factor,
         [&noise = d.noise](double r) { return noise.sigmaAt(r); }, 0.5 * d.link_radius);
+    // The novel points' tests (most of what the pieces ask) ahead, on compute/threads.
+    creases->prepareSegments(d.pieces, d.params.compute.resolved());
   }
   completeObjects(current, d.s.pre.kept, d.link_radius, sp.object_share, {}, &d.pieces,
                   &d.kept_index, creases.get(), sp.min_segment_points);

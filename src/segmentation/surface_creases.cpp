@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "common/parallel.h"
 #include "plane_fit.h"
 
 namespace novelty_detection {
@@ -23,8 +24,11 @@ CreaseTest::CreaseTest(const Cloud& cloud, const Indices& kept, const NearestNei
 
 bool CreaseTest::inCrease(int position) {
   signed char& state = state_.at(static_cast<std::size_t>(position));
-  if (state >= 0) return state == 1;
-  state = 0;
+  if (state < 0) state = test(position) ? 1 : 0;
+  return state == 1;
+}
+
+bool CreaseTest::test(int position) const {
   if (!(radius_ > 0) || !(factor_ > 0) || index_.size() != kept_.size()) return false;
   const Eigen::Vector3f p = cloud_[kept_[position]].getVector3fMap();
   const NearestNeighbourIndex::Neighbourhood around = index_.neighbourhood(p, radius_);
@@ -41,8 +45,7 @@ bool CreaseTest::inCrease(int position) {
   if (facing < 0.2) return false;  // seen edge-on
   const double offset = (plane.centroid - p.cast<double>()).dot(n);
   const double sigma = sigma_at_ ? sigma_at_(range) : 0.0;
-  if (sigma > 0 && offset > factor_ * sigma) state = 1;
-  return state == 1;
+  return sigma > 0 && offset > factor_ * sigma;
 }
 
 bool CreaseTest::nearCrease(int position) {
@@ -55,6 +58,62 @@ bool CreaseTest::nearCrease(int position) {
   for (int id : near_nn_)
     if (inCrease(id)) return (near_[static_cast<std::size_t>(position)] = 1) == 1;
   return false;
+}
+
+void CreaseTest::prepare(const std::vector<int>& positions, int threads) {
+  if (threads <= 1 || positions.empty() || index_.size() != kept_.size()) return;
+  const int n = static_cast<int>(positions.size());
+  // Each position's neighbours within near_radius_ (nearCrease's list), then every point
+  // either needs tested once, then the answers; each step writes only its own slots.
+  std::vector<std::vector<int>> near(static_cast<std::size_t>(n));
+  constexpr int kBlock = 256;
+  if (near_radius_ > 0) {
+    detail::parallelForBlocks(n, kBlock, threads, [&](int k) {
+      const int p = positions[static_cast<std::size_t>(k)];
+      index_.withinIds(cloud_[kept_[p]].getVector3fMap(), near_radius_,
+                       &near[static_cast<std::size_t>(k)]);
+    });
+  }
+  std::vector<char> wanted(kept_.size(), 0);
+  std::vector<int> todo;
+  auto want = [&](int p) {
+    if (state_[static_cast<std::size_t>(p)] < 0 && !wanted[static_cast<std::size_t>(p)])
+      wanted[static_cast<std::size_t>(p)] = 1, todo.push_back(p);
+  };
+  for (int k = 0; k < n; ++k) {
+    want(positions[static_cast<std::size_t>(k)]);
+    for (int q : near[static_cast<std::size_t>(k)]) want(q);
+  }
+  detail::parallelForBlocks(static_cast<int>(todo.size()), kBlock, threads, [&](int k) {
+    const int p = todo[static_cast<std::size_t>(k)];
+    state_[static_cast<std::size_t>(p)] = test(p) ? 1 : 0;
+  });
+  for (int k = 0; k < n; ++k) {
+    const int p = positions[static_cast<std::size_t>(k)];
+    signed char& known = near_[static_cast<std::size_t>(p)];
+    if (known >= 0) continue;
+    known = state_[static_cast<std::size_t>(p)] == 1 ? 1 : 0;
+    if (known || !(near_radius_ > 0)) continue;
+    for (int q : near[static_cast<std::size_t>(k)])
+      if (state_[static_cast<std::size_t>(q)] == 1) {
+        known = 1;
+        break;
+      }
+  }
+}
+
+void CreaseTest::prepareSegments(const std::vector<Indices>& segments, int threads) {
+  if (threads <= 1) return;
+  std::vector<int> position(cloud_.size(), -1);
+  for (std::size_t k = 0; k < kept_.size(); ++k)
+    position[static_cast<std::size_t>(kept_[k])] = static_cast<int>(k);
+  std::vector<int> positions;
+  for (const Indices& segment : segments)
+    for (int i : segment)
+      if (i >= 0 && static_cast<std::size_t>(i) < position.size() &&
+          position[static_cast<std::size_t>(i)] >= 0)
+        positions.push_back(position[static_cast<std::size_t>(i)]);
+  prepare(positions, threads);
 }
 
 }  // namespace novelty_detection

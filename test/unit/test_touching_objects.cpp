@@ -142,6 +142,23 @@ TEST(CreaseTest, ValleysAreCreasesPlanesAndRidgesAreNot) {
   EXPECT_TRUE(at(1.0f, 0.5f, 0.0f));   // where they meet
   EXPECT_TRUE(at(0.98f, 0.5f, 0.0f));  // beside it
   EXPECT_FALSE(at(0.0f, 0.5f, 0.0f));  // the ridge
+  // Answered ahead on two threads (every other point, with its neighbours), the answers
+  // are the ones asked one by one: some creases, most not.
+  const auto sigma = [](double) { return 0.002; };
+  CreaseTest serial(c, kept, index, sensor, 0.1, 3.0, sigma, 0.03);
+  CreaseTest ahead(c, kept, index, sensor, 0.1, 3.0, sigma, 0.03);
+  std::vector<int> some;
+  for (int k = 0; k < static_cast<int>(c.size()); k += 2) some.push_back(k);
+  ahead.prepare(some, 2);
+  std::size_t near = 0;
+  for (int k = 0; k < static_cast<int>(c.size()); ++k) {
+    const bool a = serial.nearCrease(k), b = ahead.nearCrease(k);
+    ASSERT_EQ(a, b) << "point " << k;
+    ASSERT_EQ(serial.inCrease(k), ahead.inCrease(k)) << "point " << k;
+    near += a;
+  }
+  EXPECT_GT(near, 50u);
+  EXPECT_LT(near, c.size() / 4);
   // Without a noise estimate nothing is a crease.
   CreaseTest blind(c, kept, index, sensor, 0.1, 3.0, [](double) { return 0.0; });
   std::size_t found = 0;

@@ -46,6 +46,13 @@ class CreaseTest {
   /// gaps between its points still parts the surfaces on its two sides).
   bool nearCrease(int position);
 
+  /// Answers nearCrease() (and inCrease() for the points it looks at) for `positions` ahead,
+  /// on up to `threads` threads; each answer is a function of its position alone, so the
+  /// later calls return what they would have computed. Nothing on one thread.
+  void prepare(const std::vector<int>& positions, int threads);
+  /// prepare() for the points of `segments` (cloud indices; those not in `kept` are skipped).
+  void prepareSegments(const std::vector<Indices>& segments, int threads);
+
  private:
   const Cloud& cloud_;
   const Indices& kept_;
@@ -56,6 +63,9 @@ class CreaseTest {
   std::vector<signed char> state_;  ///< inCrease: -1 not tested, 0 no, 1 crease
   std::vector<signed char> near_;   ///< nearCrease: -1 not asked, 0 no, 1 yes
   std::vector<int> near_nn_;        ///< neighbour ids (scratch of nearCrease)
+
+  /// inCrease()'s test itself (no cache).
+  bool test(int position) const;
 };
 
 }  // namespace novelty_detection
