@@ -625,9 +625,11 @@ struct ComputeParams {
   template <class F>
   void visit(F&& f) {
     f("threads", threads,
-      {"threads for the parallel stages: the neighbour statistics of outlier removal, EM's "
-       "E-steps, the novelty selection's EMD solves and the superquadric fits (0: the hardware "
-       "concurrency, at most 8; 1: single-threaded); results are identical for any value",
+      {"threads for the parallel stages: the neighbour statistics of outlier removal, the "
+       "trees, EM's E-steps, the novelty selection's EMD solves, the distances to the map, "
+       "the visibility tests, object completion's crease tests and the superquadric fits (0: "
+       "the hardware concurrency, at most 8; 1: single-threaded); results are identical for "
+       "any value",
        0, 256});
   }
   void validate() const;
