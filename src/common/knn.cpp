@@ -23,6 +23,19 @@ inline void insertSorted(float d, int k, float* d2) {
   for (int j = k - 1; j > 0; --j) d2[j] = std::max(d2[j - 1], std::min(d2[j], d));
   d2[0] = std::min(d2[0], d);
 }
+/// The largest float t with sqrt(t) <= radius in double (radius >= 0; sqrt is monotonic): a
+/// float squared distance d2 passes sqrt(d2) <= radius exactly when d2 <= t.
+float squaredBoundOf(double radius) {
+  const float inf = std::numeric_limits<float>::infinity();
+  if (!std::isfinite(radius)) return inf;
+  float t =
+      static_cast<float>(std::min(radius * radius, double{std::numeric_limits<float>::max()}));
+  while (t > 0.f && !(std::sqrt(static_cast<double>(t)) <= radius)) t = std::nextafter(t, 0.f);
+  while (std::sqrt(static_cast<double>(std::nextafter(t, inf))) <= radius)
+    t = std::nextafter(t, inf);
+  return t;
+}
+
 }  // namespace
 
 void KnnTree::search(int node_id, const float* q, int self, int k, float* d2, int* count) const {
@@ -259,18 +272,14 @@ KnnTree::Moments KnnTree::momentsWithin(const Eigen::Vector3f& p, double radius)
 }
 
 bool KnnTree::anyWithin(const Eigen::Vector3f& p, double radius) const {
-  // nearestDistance()'s test: the square root of the float squared distance, in double.
-  // As a float bound: the largest float t with sqrt(t) <= radius (sqrt is monotonic), so
-  // that a leaf's test is one comparison per point.
+  // nearestDistance()'s test: the square root of the float squared distance, in double,
+  // as the float bound squaredBoundOf(radius), kept while the thread asks with one radius
+  // (the distance tests of a stage ask a run of queries with one).
   if (!(radius >= 0.0)) return false;
-  const float inf = std::numeric_limits<float>::infinity();
-  float t = inf;
-  if (std::isfinite(radius)) {
-    t = static_cast<float>(std::min(radius * radius, double{std::numeric_limits<float>::max()}));
-    while (t > 0.f && !(std::sqrt(static_cast<double>(t)) <= radius)) t = std::nextafter(t, 0.f);
-    while (std::sqrt(static_cast<double>(std::nextafter(t, inf))) <= radius)
-      t = std::nextafter(t, inf);
-  }
+  thread_local double last_radius = -1.0;
+  thread_local float last_bound = 0.f;
+  if (radius != last_radius) last_radius = radius, last_bound = squaredBoundOf(radius);
+  const float t = last_bound;
   const auto close = [t](float d2) { return d2 <= t; };
   // The calling thread's last hit on this tree (a tree since freed may share the address:
   // any leaf is only a first guess, the answer is the search's).

@@ -115,19 +115,13 @@ struct EmdSolver::Network {
     simplex->supplyType(Simplex::GEQ);
   }
 
-  /// Lighter side `s` (sum s <= sum t) supplies all of it; `t` accepts at most t_j.
-  EmdResult solve(const Eigen::VectorXd& s, const Eigen::VectorXd& t, bool with_flows,
+  /// `s` supplies all of its mass; sink j accepts at most accept[j] (EmdSolver::solve()'s
+  /// capacities, a hair above the weights).
+  EmdResult solve(const Eigen::VectorXd& s, const Eigen::VectorXd& accept, bool with_flows,
                   bool with_prices, bool transpose) {
-    const double ss = s.sum(), ts = t.sum();
-    // Accept a hair more than t so that round-off never makes equal masses infeasible.
-    const double slack = 1.0 + 1e-12;
+    const double ss = s.sum();
     for (std::size_t i = 0; i < sources.size(); ++i) supply[sources[i]] = s[i];
-    for (std::size_t j = 0; j < sinks.size(); ++j) supply[sinks[j]] = -t[j] * slack;
-    if (ss > ts * slack) {
-      // Only reachable through round-off when the caller passed nearly equal masses.
-      const double f = ss / (ts * slack) * (1.0 + 1e-12);
-      for (std::size_t j = 0; j < sinks.size(); ++j) supply[sinks[j]] *= f;
-    }
+    for (std::size_t j = 0; j < sinks.size(); ++j) supply[sinks[j]] = -accept[j];
     simplex->supplyMap(supply);
     if (simplex->run() != Simplex::OPTIMAL) {
       throw std::runtime_error("EMD: the transportation problem has no optimal solution");
@@ -198,7 +192,8 @@ EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, b
   const Eigen::VectorXd& t = transpose ? p : q;
   const double ss = s.sum(), ts = t.sum(), slack = 1.0 + 1e-12;
   Eigen::VectorXd accept = t * slack;
-  if (ss > ts * slack) accept *= ss / (ts * slack) * (1.0 + 1e-12);  // nearly equal masses
+  // Only reachable through round-off when the caller passed nearly equal masses.
+  if (ss > ts * slack) accept *= ss / (ts * slack) * (1.0 + 1e-12);
   if (transpose && d_transposed_.size() == 0) d_transposed_ = d_.transpose();
   const detail::TransportBasis* start =
       from && from->basis && from->basis->transposed == transpose ? &from->basis->basis : nullptr;
@@ -207,7 +202,7 @@ EmdResult EmdSolver::solve(const Eigen::VectorXd& p, const Eigen::VectorXd& q, b
   if (!solution.optimal) {
     std::unique_ptr<Network>& network = transpose ? backward_ : forward_;
     if (!network) network = std::make_unique<Network>(transpose ? d_transposed_ : d_);
-    return network->solve(s, t, with_flows, with_prices, transpose);
+    return network->solve(s, accept, with_flows, with_prices, transpose);
   }
   r.cost = solution.cost;
   r.flow = ss;
