@@ -49,15 +49,19 @@ bool CreaseTest::test(int position) const {
 }
 
 bool CreaseTest::nearCrease(int position) {
-  signed char& known = near_.at(static_cast<std::size_t>(position));
+  const signed char known = near_.at(static_cast<std::size_t>(position));
   if (known >= 0) return known == 1;
-  known = inCrease(position) ? 1 : 0;
-  if (known || !(near_radius_ > 0) || index_.size() != kept_.size()) return known == 1;
   near_nn_.clear();
-  index_.withinIds(cloud_[kept_[position]].getVector3fMap(), near_radius_, &near_nn_);
-  for (int id : near_nn_)
-    if (inCrease(id)) return (near_[static_cast<std::size_t>(position)] = 1) == 1;
-  return false;
+  if (!inCrease(position) && near_radius_ > 0 && index_.size() == kept_.size())
+    index_.withinIds(cloud_[kept_[position]].getVector3fMap(), near_radius_, &near_nn_);
+  return settle(position, near_nn_);
+}
+
+bool CreaseTest::settle(int position, const std::vector<int>& near) {
+  bool yes = inCrease(position);
+  for (std::size_t k = 0; !yes && k < near.size(); ++k) yes = inCrease(near[k]);
+  near_[static_cast<std::size_t>(position)] = yes ? 1 : 0;
+  return yes;
 }
 
 void CreaseTest::prepare(const std::vector<int>& positions, int threads) {
@@ -88,17 +92,10 @@ void CreaseTest::prepare(const std::vector<int>& positions, int threads) {
     const int p = todo[static_cast<std::size_t>(k)];
     state_[static_cast<std::size_t>(p)] = test(p) ? 1 : 0;
   });
+  // Every test asked below is answered above: this only reads them.
   for (int k = 0; k < n; ++k) {
     const int p = positions[static_cast<std::size_t>(k)];
-    signed char& known = near_[static_cast<std::size_t>(p)];
-    if (known >= 0) continue;
-    known = state_[static_cast<std::size_t>(p)] == 1 ? 1 : 0;
-    if (known || !(near_radius_ > 0)) continue;
-    for (int q : near[static_cast<std::size_t>(k)])
-      if (state_[static_cast<std::size_t>(q)] == 1) {
-        known = 1;
-        break;
-      }
+    if (near_[static_cast<std::size_t>(p)] < 0) settle(p, near[static_cast<std::size_t>(k)]);
   }
 }
 

@@ -66,6 +66,9 @@ class CreaseTest {
 
   /// inCrease()'s test itself (no cache).
   bool test(int position) const;
+  /// nearCrease()'s answer from `near`, the position's neighbours within near_radius_ (none
+  /// needed when it is in a crease itself), kept.
+  bool settle(int position, const std::vector<int>& near);
 };
 
 }  // namespace novelty_detection
