@@ -24,6 +24,7 @@
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 #include "novelty_detection/segmentation/object_completion.h"
+#include "novelty_detection/segmentation/sparse_groups.h"
 #include "novelty_detection/segmentation/surface_creases.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/shape/superquadric.h"
@@ -272,6 +273,44 @@ void segmentCandidates(Detection& d) {
   d.timer.lap("segmentation");
 }
 
+/// Compact groups among the points outlier removal took (segmentation/sparse_groups.h): a
+/// small far object sampled sparser than the statistic allows, standing in space the reference
+/// saw through. Needs the sweep's origin (its spacing per metre of range) and the reference's
+/// visibility (the free-space evidence); runs while outlier removal's statistics are at hand.
+void addSparseGroups(Detection& d) {
+  const Cloud& current = *d.current;
+  const PreprocessResult& pre = d.s.pre;
+  const SegmentationParams& sp = d.params.segmentation;
+  if (!sp.sparse_groups || !sp.visibility_check || pre.outliers.empty() ||
+      pre.statistics.points.empty() || !sensorOriginKnown(current.sensor_origin_) ||
+      d.ref.visibility.empty())
+    return;
+  const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
+  const double ratio = spacingRatio(current, pre.statistics.points, pre.statistics.kth, origin);
+  const GroundPlane& ground = pre.ground;
+  const Eigen::Vector3d normal = ground.coefficients.head<3>();
+  const double margin = d.params.visibility.margin_factor * d.tau;
+  const auto changed = [&](const Eigen::Vector3f& p) {
+    if (ground.found && std::abs(normal.dot(p.cast<double>()) + ground.coefficients[3]) <=
+                            ground.threshold_m * normal.norm())
+      return false;  // the floor's own band
+    // Farther from the map than its own sampling spacing too: at that spacing the map's
+    // surface could lie anywhere between its samples (a far wall a pose error shifted).
+    const double spacing = ratio * (p - origin).norm();
+    return !d.ref.points.within(p, std::max(d.tau, spacing)) &&
+           d.ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell) ==
+               Visibility::kFree;
+  };
+  SparseGroups groups = sparseNovelGroups(current, pre.outliers, d.pieces, changed, origin, ratio,
+                                          sp.link_factor, sp.min_segment_points);
+  for (std::size_t s = 0; s < d.pieces.size(); ++s)
+    d.pieces[s].insert(d.pieces[s].end(), groups.joined[s].begin(), groups.joined[s].end());
+  for (Indices& g : groups.segments) d.pieces.push_back(std::move(g));
+  std::stable_sort(d.pieces.begin(), d.pieces.end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  d.timer.lap("sparse_groups");
+}
+
 bool hiddenSegmentRuleApplies(const Detection& d) {
   return d.params.segmentation.hidden.segments && !d.candidates.hidden.empty();
 }
@@ -506,6 +545,7 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   fitCurrentMixture(d);
   selectNovelGaussians(d);
   segmentCandidates(d);
+  addSparseGroups(d);
   d.s.pre.distinct_index.reset();  // the index over the kept points was their last user
   d.s.pre.statistics = {};
   buildCurrentView(d);

@@ -287,6 +287,7 @@ struct SegmentationParams {
   double crease_radius_factor = 2.0;
   double map_likelihood_quantile = 0.0;
   bool visibility_check = true;
+  bool sparse_groups = true;
   HiddenParams hidden;
 
   template <class F>
@@ -341,6 +342,13 @@ struct SegmentationParams {
       {"a novel point must lie in space the reference sweep saw as free (needs the reference "
        "viewpoint, PCD VIEWPOINT / sensor_origin_; skipped when it is the origin); see the "
        "visibility group"});
+    f("sparse_groups", sparse_groups,
+      {"compact groups among the points sparse outlier removal took (a small object far away, "
+       "sampled by a few scan lines) are novel where they stand in space the reference saw as "
+       "free, farther from the map than tau and than their own sampling spacing: a group "
+       "touching a segment joins it, one of at least min_segment_points points spreading in "
+       "two directions is a segment of its own (segmentation/sparse_groups.h; needs both "
+       "sensor origins)"});
     hidden.visit(f);
   }
   void validate() const;
