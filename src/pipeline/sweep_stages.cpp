@@ -261,9 +261,16 @@ void addSparseGroups(Detection& d) {
   };
   SparseGroups groups = sparseNovelGroups(current, pre.outliers, d.pieces, changed, origin, ratio,
                                           sp.link_factor, sp.min_segment_points);
-  for (std::size_t s = 0; s < d.pieces.size(); ++s)
+  std::size_t restored = 0;
+  for (std::size_t s = 0; s < d.pieces.size(); ++s) {
     d.pieces[s].insert(d.pieces[s].end(), groups.joined[s].begin(), groups.joined[s].end());
-  for (Indices& g : groups.segments) d.pieces.push_back(std::move(g));
+    restored += groups.joined[s].size();
+  }
+  for (Indices& g : groups.segments) {
+    restored += g.size();
+    d.pieces.push_back(std::move(g));
+  }
+  d.result.point_counts.emplace_back("sparse_group_points", restored);
   std::stable_sort(d.pieces.begin(), d.pieces.end(),
                    [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
   d.timer.lap("sparse_groups");

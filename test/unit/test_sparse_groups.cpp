@@ -144,6 +144,11 @@ TEST(SparseGroups, SparseDoorLeavesFoundAtBothNoiseLevelsAndFromAShiftedPose) {
       pipeline.setReference(s.reference);
       const Result r = pipeline.detect(s.current);
       segments[k] = r.segments.size();
+      std::size_t restored = 0;
+      for (const auto& [stage, n] : r.point_counts)
+        if (stage == "sparse_group_points") restored = n;
+      if (k == 0) EXPECT_GT(restored, 0u) << "seed " << c.seed;
+      if (k == 1) EXPECT_EQ(restored, 0u) << "seed " << c.seed;
       for (const Segment& seg : r.segments) {
         std::size_t both = 0;
         for (int i : seg.indices) both += s.current_labels[static_cast<std::size_t>(i)] > 0;
