@@ -246,11 +246,11 @@ void addSparseGroups(Detection& d) {
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
   const double ratio = spacingRatio(current, pre.statistics.points, pre.statistics.kth, origin);
   const GroundPlane& ground = pre.ground;
-  const Eigen::Vector3d normal = ground.coefficients.head<3>();
+  const Eigen::Vector3d normal = ground.coefficients.head<3>();  // unit (ground_plane.cpp)
   const double margin = d.params.visibility.margin_factor * d.tau;
   const auto changed = [&](const Eigen::Vector3f& p) {
-    if (ground.found && std::abs(normal.dot(p.cast<double>()) + ground.coefficients[3]) <=
-                            ground.threshold_m * normal.norm())
+    if (ground.found &&
+        std::abs(normal.dot(p.cast<double>()) + ground.coefficients[3]) <= ground.threshold_m)
       return false;  // the floor's own band
     // Farther from the map than its own sampling spacing too: at that spacing the map's
     // surface could lie anywhere between its samples (a far wall a pose error shifted).

@@ -224,7 +224,9 @@ GroundPlane findGroundPlane(const Cloud& cloud, const Indices& indices,
     detail::parallelFor(static_cast<int>(planes->size() - from), threads, [&](int k) {
       Hypothesis& h = (*planes)[from + static_cast<std::size_t>(k)];
       const double nx = h.normal.x(), ny = h.normal.y(), nz = h.normal.z(), hd = h.d;
-      std::vector<int> inliers(static_cast<std::size_t>(m));
+      // The inlier list of the thread's hypotheses, allocated once per thread.
+      thread_local std::vector<int> inliers;
+      inliers.resize(static_cast<std::size_t>(m));
       int support = 0;
       for (int j = 0; j < m; ++j) {
         inliers[support] = j;

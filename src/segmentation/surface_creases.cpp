@@ -67,8 +67,9 @@ bool CreaseTest::settle(int position, const std::vector<int>& near) {
 void CreaseTest::prepare(const std::vector<int>& positions, int threads) {
   if (threads <= 1 || positions.empty() || index_.size() != kept_.size()) return;
   const int n = static_cast<int>(positions.size());
-  // Each position's neighbours within near_radius_ (nearCrease's list), then every point
-  // either needs tested once, then the answers; each step writes only its own slots.
+  // Each position's neighbours within near_radius_ (nearCrease's list), then the test of
+  // every point either of them needs, once, then the answers; each step writes only its own
+  // slots.
   std::vector<std::vector<int>> near(static_cast<std::size_t>(n));
   constexpr int kBlock = 256;
   if (near_radius_ > 0) {
