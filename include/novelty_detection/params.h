@@ -446,6 +446,7 @@ struct SuperquadricParams {
   double noise_factor = 1.5;
   double neighbour_distance_factor = 1.0;
   int max_parts = 8;
+  bool standing_parts = true;
 
   template <class F>
   void visit(F&& f) {
@@ -553,6 +554,11 @@ struct SuperquadricParams {
        "typical two-dimensional 12-point neighbourhood",
        0.5, 100.0});
     f("max_parts", max_parts, {"maximum number of superquadrics per segment", 1, 1024});
+    f("standing_parts", standing_parts,
+      {"a segment standing on the floor that split and merge finds composite is cut instead "
+       "where its horizontal section steps (a person's legs, trunk and head), each band into "
+       "the pieces it falls into (two legs side by side), when that gives 2 to max_parts parts "
+       "(shape/standing_parts.h)"});
   }
   void validate() const;
 };

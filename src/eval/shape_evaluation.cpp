@@ -53,6 +53,20 @@ double meanDistance(const Cloud& cloud, const std::vector<int>& truth, int id,
   return n > 0 ? total / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
 }
 
+/// Index of the nearest of `parts` to p (surface distance); -1 when none is finite.
+int nearestPart(const std::vector<const Superquadric*>& parts, const Eigen::Vector3d& p) {
+  int best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const double d = surfaceDistance(*parts[k], p);
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(k);
+    }
+  }
+  return best;
+}
+
 /// The superquadrics by the segment they were fitted to; throws std::invalid_argument naming
 /// `who` when `truth` does not label `cloud`.
 std::map<int, std::vector<const Superquadric*>> bySegment(
@@ -95,6 +109,27 @@ std::vector<TrueShape> readTrueShapes(const std::string& scene_json) {
   return out;
 }
 
+const Superquadric* mainFittedPart(const Points3d& points,
+                                   const std::vector<const Superquadric*>& true_parts,
+                                   const std::vector<const Superquadric*>& fitted) {
+  if (fitted.empty()) return nullptr;
+  std::size_t body = 0;
+  for (std::size_t k = 1; k < true_parts.size(); ++k)
+    if (volume(*true_parts[k]) > volume(*true_parts[body])) body = k;
+  std::vector<int> votes(fitted.size(), 0);
+  for (const auto& p : points) {
+    if (!p.allFinite() || nearestPart(true_parts, p) != static_cast<int>(body)) continue;
+    const int k = nearestPart(fitted, p);
+    if (k >= 0) ++votes[static_cast<std::size_t>(k)];
+  }
+  const auto most = std::max_element(votes.begin(), votes.end());
+  if (*most > 0) return fitted[static_cast<std::size_t>(most - votes.begin())];
+  const Superquadric* main = fitted.front();
+  for (const Superquadric* sq : fitted)
+    if (volume(*sq) > volume(*main)) main = sq;
+  return main;
+}
+
 std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std::vector<int>& truth,
                                                   const SceneScore& score,
                                                   const std::vector<Superquadric>& superquadrics,
@@ -116,9 +151,10 @@ std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std:
     e.floor_m = meanDistance(cloud, truth, obj.id, true_parts);
     if (!std::isfinite(e.fit_m) || !std::isfinite(e.floor_m)) continue;
     e.parts = static_cast<int>(fitted->second.size());
-    const Superquadric* main = fitted->second.front();
-    for (const Superquadric* sq : fitted->second)
-      if (volume(*sq) > volume(*main)) main = sq;
+    Points3d object_points;
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (truth[i] == obj.id) object_points.push_back(cloud[i].getVector3fMap().cast<double>());
+    const Superquadric* main = mainFittedPart(object_points, true_parts, fitted->second);
     int long_axis = 0;
     main->a.maxCoeff(&long_axis);
     const double up_cos = std::abs(main->rotation().col(long_axis).z());

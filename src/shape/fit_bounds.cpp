@@ -113,9 +113,10 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   return bounds;
 }
 
-Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness) {
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness,
+                            bool standing_part) {
   if (!bounds.view || bounds.params.mirror_max_free <= 0.0 || points.size() < 11 ||
-      !bounds.standsOnFloor(points))
+      !(standing_part ? bounds.has_floor : bounds.standsOnFloor(points)))
     return {};
   // Horizontal view direction v and lateral direction u.
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -226,12 +227,22 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
   return out;
 }
 
+namespace {
+/// Standard deviation of `f`'s points across their best plane, less the noise.
+double spreadAcross(const PrincipalFrame& f, double noise_m) {
+  return std::sqrt(std::max(0.0, f.eigenvalues(0) - noise_m * noise_m));
+}
+}  // namespace
+
+bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio) {
+  return spreadAcross(f, noise_m) <= ratio * std::sqrt(f.eigenvalues(1));
+}
+
 bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq) {
   if (points.size() < 3 || !sq) return false;
   const PrincipalFrame f = principalFrame(points);
-  const Eigen::Vector3d& var = f.eigenvalues;  // ascending
-  const double across = std::sqrt(std::max(0.0, var(0) - noise_m * noise_m));
-  if (!(across <= kFlatRatio * std::sqrt(var(1)))) return false;
+  if (!isFlatView(f, noise_m)) return false;
+  const double across = spreadAcross(f, noise_m);
   const Eigen::Vector3d normal = f.axes.col(0);
   const Eigen::Vector3d& centroid = f.centroid;
   const Eigen::Matrix3d r = sq->rotation();

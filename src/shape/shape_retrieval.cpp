@@ -7,6 +7,7 @@
 #include "common/parallel.h"
 #include "novelty_detection/point_grid.h"
 #include "novelty_detection/shape/split_merge.h"
+#include "novelty_detection/shape/standing_parts.h"
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/shape/superquadric_fit.h"
 
@@ -14,6 +15,38 @@ namespace novelty_detection {
 namespace {
 // An ellipsoid's exponents may move this little from 1 (bounds need some room).
 constexpr double kRoundBand = 0.02;
+// Fewest points of a part of a standing composite (a superquadric has 11 parameters).
+constexpr int kMinStandingPartPoints = 12;
+// A standing composite is deeper than a flat view: its points' spread across their best
+// plane, less the noise, exceeds this share of their spread along it (people: 0.25 and more;
+// door leaves, however noisy or partly seen, mostly below 0.2).
+constexpr double kCompositeDepth = 0.2;
+
+/// The parts of a tall object standing on the floor, cut where its horizontal section steps
+/// (standing_parts.h), each with a first fit; empty when it is not one (no floor, not
+/// standing on it, no deeper than kCompositeDepth: one surface) or its section does not step.
+std::vector<SuperquadricPart> standingComposite(const Points3d& points, const FitBounds* bounds,
+                                                const SuperquadricFitter& fitter, int max_parts,
+                                                int threads) {
+  if (!bounds || !bounds->has_floor || !bounds->standsOnFloor(points) ||
+      isFlatView(principalFrame(points), bounds->noise_m, kCompositeDepth)) {
+    return {};
+  }
+  const std::vector<Indices> groups =
+      standingParts(points, bounds->up, bounds->floor_offset, kMinStandingPartPoints);
+  if (groups.size() < 2 || static_cast<int>(groups.size()) > max_parts) return {};
+  std::vector<SuperquadricPart> parts(groups.size());
+  detail::parallelFor(static_cast<int>(groups.size()), threads, [&](int k) {
+    SuperquadricPart& part = parts[static_cast<std::size_t>(k)];
+    part.indices = groups[static_cast<std::size_t>(k)];
+    Points3d members;
+    members.reserve(part.indices.size());
+    for (int i : part.indices) members.push_back(points[static_cast<std::size_t>(i)]);
+    part.fit = fitter.fit(subsample(members, fitter.params().max_fit_points), -1, true,
+                          FitMeasures::kNone);
+  });
+  return parts;
+}
 }  // namespace
 
 ShapeRetrieval::ShapeRetrieval(const SuperquadricParams& params) : params_(params) {
@@ -39,11 +72,12 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // The model is moved first to the completed set's centre on the floor plan (the middle of
   // the silhouette), so that the refinement does not stay in the hidden space the unbounded
   // fit reached into.
-  const auto with_hidden_side = [&](double roundness, Superquadric* model) {
-    if (!bounds) return sub;
-    const Points3d mirrored = mirroredHiddenSide(sub, *bounds, roundness);
-    if (mirrored.empty()) return sub;
-    Points3d both = sub;
+  const auto with_hidden_side = [&](const Points3d& seen, double roundness, Superquadric* model,
+                                    bool standing_part = false) {
+    if (!bounds) return seen;
+    const Points3d mirrored = mirroredHiddenSide(seen, *bounds, roundness, standing_part);
+    if (mirrored.empty()) return seen;
+    Points3d both = seen;
     both.insert(both.end(), mirrored.begin(), mirrored.end());
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& p : both) centre += p;
@@ -52,6 +86,15 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     model->position += shift - shift.dot(bounds->up) * bounds->up;
     return subsample(both, params_.max_fit_points);
   };
+
+  // A tall composite standing on the floor (a person) is cut where its section steps, into
+  // legs, trunk, limbs and head (standing_parts.h), not by split and merge's cuts across
+  // its main axis, which slice the body into slabs.
+  std::vector<SuperquadricPart> parts;
+  if (params_.standing_parts) {
+    parts = standingComposite(sm_points, bounds, fitter, params_.max_parts, threads_);
+  }
+  const bool standing = !parts.empty();
 
   // Multi-scale fitting (Sec. V-B): a fit on the coarse representatives refined on the finer
   // points, and a fit on the finer points from the moment initialisation; the lower mean
@@ -70,11 +113,11 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   round.epsilon_max = 1.0 + kRoundBand;
   const SuperquadricFitter round_fitter(round);
 
-  // The three fits are independent: in parallel.
+  // The three fits are independent: in parallel (none for a standing composite).
   bool coarse_usable = coarse.size() >= 11;
   for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
   FitResult fits[2], ellipsoid;
-  detail::parallelFor(3, threads_, [&](int k) {
+  detail::parallelFor(parts.empty() ? 3 : 0, threads_, [&](int k) {
     if (k == 2) {
       if (round_check) ellipsoid = round_fitter.fit(sub, -1, true, FitMeasures::kSurface);
       return;
@@ -91,7 +134,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
-  if (round_check && round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub)))
+  if (parts.empty() && round_check &&
+      round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub)))
     best = ellipsoid;
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
@@ -99,17 +143,17 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   split_merge.setThreads(threads_);
   // The nugget of dense, noisy views comes out low; the sweep's noise model bounds it.
   if (bounds) split_merge.setSensorNoise(bounds->noise_m);
-  std::vector<SuperquadricPart> parts = split_merge.run(sm_points, &best);
+  if (parts.empty()) parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {
       Superquadric model = best.sq;
-      const Points3d seen = with_hidden_side(0.0, &model);
+      const Points3d seen = with_hidden_side(sub, 0.0, &model);
       best = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
       // A round section's silhouette ends lie in front of its centre: mirror again knowing
       // how round the first fit came out.
       const double roundness = bounds->has_floor ? horizontalRoundness(best.sq, bounds->up) : 0.0;
       model = best.sq;
-      const Points3d data = roundness > 0.0 ? with_hidden_side(roundness, &model) : seen;
+      const Points3d data = roundness > 0.0 ? with_hidden_side(sub, roundness, &model) : seen;
       if (roundness > 0.0) best = bounded.refine(data, model, -1, true, FitMeasures::kNone);
       // Then once more with the middles of the gaps the sweep left around it, together
       // weighing a quarter of the points.
@@ -173,8 +217,11 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     if (bounds && !bounds->empty()) round_bounded.setBounds(bounds);
     detail::parallelFor(static_cast<int>(parts.size()), threads_, [&](int k) {
       if (part_points[k].empty()) return;
-      const Points3d data = subsample(part_points[k], params_.max_fit_points);
-      const Superquadric start = parts[k].fit.sq;
+      Points3d data = subsample(part_points[k], params_.max_fit_points);
+      Superquadric start = parts[k].fit.sq;
+      // A standing composite's parts (trunk, limbs, head) are seen from one side too: each
+      // also fits its points reflected about its own vertical axis (fit_bounds.h).
+      if (standing) data = with_hidden_side(data, 0.0, &start, true);
       if (round_check) {
         // Round or free is chosen the way split and merge ranks its fits (few points, few
         // iterations); only the chosen model is polished.

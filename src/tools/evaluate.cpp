@@ -179,8 +179,9 @@ std::string shapeKindMarkdown(const std::vector<KindShapeError>& kinds) {
   for (const auto& k : kinds) {
     if (k.type != "person") continue;
     md << "\nPeople: " << std::setprecision(1) << k.parts_mean << " parts per found person ("
-       << k.parts_3_to_7 << " of " << k.objects << " with 3 to 7); the largest part's long axis "
-       << "within 20 deg of up for " << k.main_part_within_20 << " of " << k.objects << ".\n";
+       << k.parts_3_to_7 << " of " << k.objects << " with 3 to 7); the long axis of the part "
+       << "fitted to the torso within 20 deg of up for " << k.main_part_within_20 << " of "
+       << k.objects << ".\n";
   }
   return md.str();
 }

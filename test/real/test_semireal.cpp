@@ -218,3 +218,81 @@ TEST(SemiReal, PersonOnTheFloorLeavesTheFloorAlone) {
   EXPECT_GE(feet, 20u);
   EXPECT_GE(feet_found, feet * 7 / 10);
 }
+
+// The real person's parts where the room sweep sees it with at least 200 points (1.6 and
+// 2.5 m out; 1096 and 494 points), cut where its section steps (standing_parts.h). This
+// person's section widens gradually from the legs (0.31-0.35 m) to the chest (0.38-0.48 m),
+// no step and the legs never apart, and narrows at the neck (0.15-0.26 m): a body and a head,
+// the head a part of its own above 80 % of the person's height and the body upright (the
+// part holding most of the points between 55 and 75 % of the height; the trunk spans about
+// 47-77 % of a person's height). Split and merge alone gives 2 and 1 parts, the first with
+// its largest part 88 deg from up. Printed also for the far placement.
+TEST(SemiReal, RoomPersonGetsAnUprightBodyAndAHead) {
+  REQUIRE_DATA(roomDir() / "room_scan2.pcd");
+  REQUIRE_DATA(dataDir() / "pcl_test_indoor_scenes" / "five_people.pcd");
+  const Pair pair = roomPair();
+  const sim::ObjectModel person = realPerson();
+  const auto placements = sim::freeFloorPlacements(pair.current, pair.currentOrigin(),
+                                                   pair.reference, person, 3, 1, 40);
+  ASSERT_EQ(placements.size(), 3u);
+  for (const bool standing : {true, false}) {
+    Params p;
+    p.superquadric.standing_parts = standing;
+    Pipeline pipeline(p);
+    pipeline.setReference(pair.reference);
+    for (const sim::Placement& where : placements) {
+      const sim::Insertion in =
+          sim::insertByRayCasting(pair.current, pair.currentOrigin(), person, where);
+      const Result r = pipeline.detect(in.cloud);
+      // The person's segment: the one holding most of its points.
+      const Segment* best = nullptr;
+      std::size_t best_count = 0;
+      for (const Segment& s : r.segments) {
+        std::size_t n = 0;
+        for (int i : s.indices) n += in.truth[static_cast<std::size_t>(i)] != 0;
+        if (n > best_count) best = &s, best_count = n;
+      }
+      ASSERT_NE(best, nullptr);
+      const double floor_z = where.base.z(), height = person.height;
+      std::vector<const Superquadric*> parts;
+      for (const Superquadric& sq : r.superquadrics)
+        if (sq.segment == best->id) parts.push_back(&sq);
+      const Superquadric* trunk = nullptr;
+      std::size_t trunk_count = 0;
+      for (const Superquadric* sq : parts) {
+        std::size_t n = 0;
+        for (int i : sq->indices) {  // into the input cloud
+          const double z = in.cloud[static_cast<std::size_t>(i)].z - floor_z;
+          n += z >= 0.55 * height && z <= 0.75 * height;
+        }
+        if (n > trunk_count) trunk = sq, trunk_count = n;
+      }
+      ASSERT_NE(trunk, nullptr);
+      int long_axis = 0;
+      trunk->a.maxCoeff(&long_axis);
+      const double tilt =
+          std::acos(std::min(1.0, std::abs(trunk->rotation().col(long_axis).z()))) * 180.0 / M_PI;
+      // A part all of whose points lie above 80 % of the person's height: the head.
+      bool head = false;
+      for (const Superquadric* sq : parts) {
+        bool above = !sq->indices.empty();
+        for (int i : sq->indices)
+          above = above && in.cloud[static_cast<std::size_t>(i)].z - floor_z > 0.8 * height;
+        head = head || above;
+      }
+      std::printf(
+          "  %s: person of %zu points %.1f m out: %zu parts%s, trunk a (%.2f %.2f %.2f) "
+          "tilt %.0f deg\n",
+          standing ? "standing parts" : "split and merge alone", in.replaced,
+          std::hypot(where.base.x() - pair.currentOrigin().x(),
+                     where.base.y() - pair.currentOrigin().y()),
+          parts.size(), head ? " (a head)" : "", trunk->a.x(), trunk->a.y(), trunk->a.z(), tilt);
+      if (standing && in.replaced >= 200) {
+        EXPECT_GE(parts.size(), 2u);
+        EXPECT_LE(parts.size(), 7u);
+        EXPECT_TRUE(head);
+        EXPECT_LE(tilt, 20.0);
+      }
+    }
+  }
+}

@@ -1,8 +1,14 @@
 // The points of a simulated scene's changed objects, as the shape tests fit them. Test-only.
 #pragma once
 
+#include <cmath>
+#include <memory>
+
+#include "novelty_detection/preprocess/range_noise.h"
+#include "novelty_detection/shape/fit_bounds.h"
 #include "novelty_detection/shape/superquadric_fit.h"
 #include "novelty_detection/sim/scene.h"
+#include "novelty_detection/visibility/visibility.h"
 
 namespace novelty_detection {
 namespace sim_objects {
@@ -20,6 +26,39 @@ inline Points3d objectPoints(const sim::ScenePair& scene, int id) {
 /// points (at least 11).
 inline Points3d coarsePoints(const Points3d& fine) {
   return subsample(fine, static_cast<int>(fine.size() / 8) + 11);
+}
+
+/// What bounds a changed object's fit in the detector, from the scene's true labels: the
+/// sweep seen from its origin, the floor z = 0 with a band and a free-space margin of three
+/// times the range noise (about the detector's tau), the simulator's constant range noise.
+/// Not movable: `source` and `bounds` point into it.
+struct ObjectBounds {
+  RangeImage view;
+  RangeNoise noise;
+  FitBoundsSource source;
+  FitBounds bounds;
+};
+
+inline std::unique_ptr<ObjectBounds> boundsOf(const sim::ScenePair& scene,
+                                              const sim::SceneConfig& cfg, int id,
+                                              const Points3d& fine,
+                                              const SuperquadricParams& params) {
+  auto b = std::make_unique<ObjectBounds>();
+  const double sigma = std::sqrt(cfg.laser.noise_variance_m2);
+  b->view.build(scene.current, {}, scene.current.sensor_origin_.head<3>(),
+                rangeImageConfig(VisibilityParams()));
+  b->noise.estimated = true;
+  b->noise.scale = sigma;
+  b->source.sweep = &scene.current;
+  b->source.labels = &scene.current_labels;
+  b->source.view = &b->view;
+  b->source.margin_m = 3.0 * sigma;
+  b->source.has_floor = true;
+  b->source.floor = Eigen::Vector4d(0, 0, 1, 0);
+  b->source.floor_band_m = 3.0 * sigma;
+  b->source.noise = &b->noise;
+  b->bounds = fitBoundsFor(fine, id, b->source, params);
+  return b;
 }
 
 }  // namespace sim_objects

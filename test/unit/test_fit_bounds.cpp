@@ -139,24 +139,10 @@ BoundedCase fitStanding(sim::NoveltyKind kind, std::uint64_t seed) {
   const Points3d fine = sim_objects::objectPoints(scene, object.id);
   if (fine.size() < 50) return c;
   const Points3d coarse = sim_objects::coarsePoints(fine);
-  const double sigma = std::sqrt(cfg.laser.noise_variance_m2);
-  RangeImage view;
-  view.build(scene.current, {}, scene.current.sensor_origin_.head<3>(),
-             rangeImageConfig(VisibilityParams()));
-  FitBoundsSource source;
-  source.sweep = &scene.current;
-  source.labels = &scene.current_labels;
-  source.view = &view;
-  source.margin_m = 3.0 * sigma;  // about the detector's tau at this noise
-  source.has_floor = true;
-  source.floor = Eigen::Vector4d(0, 0, 1, 0);
-  source.floor_band_m = 3.0 * sigma;
-  RangeNoise noise;  // the simulator's range noise, constant with range
-  noise.estimated = true;
-  noise.scale = sigma;
-  source.noise = &noise;
   const SuperquadricParams params;
-  const FitBounds bounds = fitBoundsFor(fine, object.id, source, params);
+  const auto bounded = sim_objects::boundsOf(scene, cfg, object.id, fine, params);
+  const FitBoundsSource& source = bounded->source;
+  const FitBounds& bounds = bounded->bounds;
   const ShapeRetrieval retrieval(params);
   const auto loose = retrieval.recover(fine, coarse, object.id);
   const auto tight = retrieval.recover(fine, coarse, object.id, &bounds);

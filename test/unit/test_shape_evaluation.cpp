@@ -108,16 +108,25 @@ TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
   // The puck's long axes lie in the horizontal plane: 90 degrees from up.
   EXPECT_NEAR(errors[0].main_part_tilt_deg, 90.0, 1e-6);
 
-  // Two fitted parts: no semi-axis comparison, the surface errors still count. The larger
-  // one, a post tilted by 15 degrees, sets the main part's tilt.
-  Superquadric other = puck;
-  other.position.z() += 0.3;
-  other.a = Eigen::Vector3d(0.3, 0.3, 1.2);
-  other.euler = Eigen::Vector3d(0.0, 15.0 * M_PI / 180.0, 0.0);
-  errors = scoreShapesByObject(cloud, truth, score, {puck, other}, shapes);
+  // Two fitted parts: no semi-axis comparison, the surface errors still count. The main
+  // body's part is the one nearest most of the true body's points, not the larger: a post
+  // 3 m away, tilted by 15 degrees and larger, leaves it to the puck; a tilted egg on the
+  // sphere takes it from a puck 3 m away.
+  Superquadric post = puck;
+  post.position.x() += 3.0;
+  post.a = Eigen::Vector3d(0.3, 0.3, 1.2);
+  post.euler = Eigen::Vector3d(0.0, 15.0 * M_PI / 180.0, 0.0);
+  errors = scoreShapesByObject(cloud, truth, score, {puck, post}, shapes);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_TRUE(std::isnan(errors[0].semi_axis_error_m));
   EXPECT_EQ(errors[0].parts, 2);
+  EXPECT_NEAR(errors[0].main_part_tilt_deg, 90.0, 1e-6);
+  Superquadric egg = puck, far_puck = puck;
+  egg.a = Eigen::Vector3d(0.45, 0.45, 0.55);
+  egg.euler = post.euler;
+  far_puck.position.x() += 3.0;
+  errors = scoreShapesByObject(cloud, truth, score, {far_puck, egg}, shapes);
+  ASSERT_EQ(errors.size(), 1u);
   EXPECT_NEAR(errors[0].main_part_tilt_deg, 15.0, 1e-6);
   const auto two = summarizeShapesByKind(errors);
   ASSERT_EQ(two.size(), 1u);

@@ -40,8 +40,9 @@ struct ObjectShapeError {
   /// NaN otherwise.
   double semi_axis_error_m = std::numeric_limits<double>::quiet_NaN();
   int parts = 0;  ///< superquadrics fitted to its segment
-  /// Angle between up (+z, the simulator's) and the long axis of its largest fitted part
-  /// (by volume) [deg, 0..90]: a person's torso, an upright object's height.
+  /// Angle between up (+z, the simulator's) and the long axis of the fitted part that stands
+  /// for its main body [deg, 0..90]: of its points nearest its largest true part (by volume:
+  /// a person's torso), the fitted part nearest most of them.
   double main_part_tilt_deg = std::numeric_limits<double>::quiet_NaN();
 };
 
@@ -52,15 +53,23 @@ struct KindShapeError {
   double fit_m = 0.0, floor_m = 0.0;
   int axis_objects = 0;
   double semi_axis_error_m = 0.0;
-  double parts_mean = 0.0;      ///< fitted parts per object
-  int parts_3_to_7 = 0;         ///< objects fitted with 3 to 7 parts (a person's range)
-  int main_part_within_20 = 0;  ///< objects whose largest part's long axis is within 20 deg of up
+  double parts_mean = 0.0;  ///< fitted parts per object
+  int parts_3_to_7 = 0;     ///< objects fitted with 3 to 7 parts (a person's range)
+  int main_part_within_20 =
+      0;  ///< objects whose main body's part (main_part_tilt_deg) is within 20 deg of up
   double ratio() const { return floor_m > 0.0 ? fit_m / floor_m : 0.0; }
 };
 
 /// Reads the changed objects' true shapes from a scene's scene.json. Throws
 /// std::runtime_error naming the file and what is wrong.
 std::vector<TrueShape> readTrueShapes(const std::string& scene_json);
+
+/// The fitted part that stands for an object's main body: of its `points` nearest its
+/// largest true part (by volume: a person's torso), the fitted part nearest most of them
+/// (surface distance); the largest fitted part when none is; null when `fitted` is empty.
+const Superquadric* mainFittedPart(const Points3d& points,
+                                   const std::vector<const Superquadric*>& true_parts,
+                                   const std::vector<const Superquadric*>& fitted);
 
 /// For every found object with superquadrics and a true shape: its errors (above).
 std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std::vector<int>& truth,

@@ -38,6 +38,7 @@ namespace novelty_detection {
 
 class RangeImage;
 struct RangeNoise;
+struct PrincipalFrame;  // shape/superquadric_fit.h
 
 struct FitBounds {
   /// Points the object does not contain (see the header comment).
@@ -117,8 +118,10 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// `roundness` in [0, 1]: how round the object's horizontal section is (0: cornered, its
 /// silhouette's ends are corners level with the centre; 1: round, they are tangent points
 /// in front of it), from a first fit's exponent.
-Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds,
-                            double roundness = 0.0);
+/// `standing_part`: the points are one part of an object standing on the floor (a person's
+/// trunk or limb, standing_parts.h), mirrored though they do not reach the floor themselves.
+Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness = 0.0,
+                            bool standing_part = false);
 
 /// Where a standing, upright fit's surface most likely lies where the sweep did not see it:
 /// the middles of the gaps between the fit's surface and the first space the sweep saw
@@ -143,6 +146,9 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
 /// was cut (never when it is already that thin or the points are not flat).
 bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq);
 constexpr double kFlatRatio = 0.1;
+/// Whether points with principal frame `f` are a flat view, by thinToFlatView()'s rule with
+/// `ratio` in place of kFlatRatio.
+bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio = kFlatRatio);
 constexpr double kThinAxisDeg = 25.0;
 
 /// How round the horizontal section of an upright `sq` is: 0 for a cornered section
