@@ -226,7 +226,7 @@ TEST(SemiReal, PersonOnTheFloorLeavesTheFloorAlone) {
 // the head a part of its own above 80 % of the person's height and the body upright (the
 // part holding most of the points between 55 and 75 % of the height; the trunk spans about
 // 47-77 % of a person's height). Split and merge alone gives 2 and 1 parts, the first with
-// its largest part 88 deg from up. Printed also for the far placement.
+// its part over the trunk 88 deg from up. Printed also for the far placement.
 TEST(SemiReal, RoomPersonGetsAnUprightBodyAndAHead) {
   REQUIRE_DATA(roomDir() / "room_scan2.pcd");
   REQUIRE_DATA(dataDir() / "pcl_test_indoor_scenes" / "five_people.pcd");
