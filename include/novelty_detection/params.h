@@ -555,10 +555,11 @@ struct SuperquadricParams {
        0.5, 100.0});
     f("max_parts", max_parts, {"maximum number of superquadrics per segment", 1, 1024});
     f("standing_parts", standing_parts,
-      {"a segment standing on the floor that split and merge finds composite is cut instead "
-       "where its horizontal section steps (a person's legs, trunk and head), each band into "
-       "the pieces it falls into (two legs side by side), when that gives 2 to max_parts parts "
-       "(shape/standing_parts.h)"});
+      {"a tall segment standing on the floor (at least 2.5 times as tall as wide, deeper than a "
+       "flat view) is cut where its horizontal section steps, into legs, trunk, arms and head, "
+       "each band into the pieces it falls into (two legs side by side), instead of by split "
+       "and merge when that gives 2 to max_parts parts; each part is also fitted with its "
+       "hidden side by symmetry (shape/standing_parts.h)"});
   }
   void validate() const;
 };
