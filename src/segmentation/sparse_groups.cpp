@@ -2,23 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include <Eigen/Eigenvalues>
 
+#include "common/disjoint_sets.h"
 #include "common/knn.h"
 
 namespace novelty_detection {
 namespace {
-
-/// Union-find with path halving.
-int findRoot(std::vector<int>& parent, int i) {
-  while (parent[static_cast<std::size_t>(i)] != i) {
-    parent[static_cast<std::size_t>(i)] = parent[static_cast<std::size_t>(parent[i])];
-    i = parent[static_cast<std::size_t>(i)];
-  }
-  return i;
-}
 
 /// Whether the points spread in two directions (kMinSpreadRatio).
 bool spreadsInTwoDirections(const std::vector<Eigen::Vector3f>& points, const Indices& members) {
@@ -73,16 +64,12 @@ SparseGroups sparseNovelGroups(const Cloud& cloud, const Indices& removed,
   if (points.empty()) return out;
   // Groups: linked when within the larger of the two link distances.
   const detail::KnnTree tree(points);
-  std::vector<int> parent(points.size());
-  std::iota(parent.begin(), parent.end(), 0);
+  detail::DisjointSets groups(points.size());
   std::vector<int> near;
   for (std::size_t i = 0; i < points.size(); ++i) {
     near.clear();
     tree.within(points[i], link[i], &near);
-    for (int j : near) {
-      const int a = findRoot(parent, static_cast<int>(i)), b = findRoot(parent, j);
-      if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-    }
+    for (int j : near) groups.unite(static_cast<int>(i), j);
   }
   // The segment each group touches most (the first of equals), if any.
   std::vector<Eigen::Vector3f> segment_points;
@@ -99,13 +86,13 @@ SparseGroups sparseNovelGroups(const Cloud& cloud, const Indices& removed,
     near.clear();
     segment_tree.within(points[i], link[i], &near);
     if (near.empty()) continue;
-    std::vector<int>& c = contacts[static_cast<std::size_t>(findRoot(parent, static_cast<int>(i)))];
+    std::vector<int>& c = contacts[static_cast<std::size_t>(groups.find(static_cast<int>(i)))];
     c.resize(segments.size(), 0);
     for (int j : near) ++c[static_cast<std::size_t>(segment_of[static_cast<std::size_t>(j)])];
   }
   std::vector<Indices> members(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
-    members[static_cast<std::size_t>(findRoot(parent, static_cast<int>(i)))].push_back(
+    members[static_cast<std::size_t>(groups.find(static_cast<int>(i)))].push_back(
         static_cast<int>(i));
   for (std::size_t root = 0; root < points.size(); ++root) {
     const Indices& group = members[root];

@@ -117,7 +117,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   bool coarse_usable = coarse.size() >= 11;
   for (const auto& p : coarse) coarse_usable = coarse_usable && p.allFinite();
   FitResult fits[2], ellipsoid;
-  detail::parallelFor(parts.empty() ? 3 : 0, threads_, [&](int k) {
+  detail::parallelFor(standing ? 0 : 3, threads_, [&](int k) {
     if (k == 2) {
       if (round_check) ellipsoid = round_fitter.fit(sub, -1, true, FitMeasures::kSurface);
       return;
@@ -134,7 +134,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
-  if (parts.empty() && round_check &&
+  if (!standing && round_check &&
       round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub)))
     best = ellipsoid;
 
@@ -143,7 +143,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   split_merge.setThreads(threads_);
   // The nugget of dense, noisy views comes out low; the sweep's noise model bounds it.
   if (bounds) split_merge.setSensorNoise(bounds->noise_m);
-  if (parts.empty()) parts = split_merge.run(sm_points, &best);
+  if (!standing) parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {
       Superquadric model = best.sq;

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <utility>
 
+#include "common/disjoint_sets.h"
 #include "novelty_detection/point_grid.h"
 
 namespace novelty_detection {
@@ -23,11 +24,17 @@ struct Layer {
   double log_width = 0.0;  ///< log of the 5-95 % range along the main horizontal axis
 };
 
-/// The value at quantile q of `values` (the element at floor(q (n - 1)) in order).
-double quantile(std::vector<double> values, double q) {
+/// The value at quantile q of `values` (the element at floor(q (n - 1)) in order); reorders
+/// them.
+double quantile(std::vector<double>& values, double q) {
   const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
   std::nth_element(values.begin(), values.begin() + static_cast<long>(k), values.end());
   return values[k];
+}
+
+/// The 5-95 % range of `values`; reorders them.
+double innerRange(std::vector<double>& values) {
+  return quantile(values, kHighQuantile) - quantile(values, kLowQuantile);
 }
 
 /// Points-weighted mean log width of layers [a, b) that pass `keep`.
@@ -49,27 +56,15 @@ std::vector<std::vector<int>> pieces(const Points3d& planar, const std::vector<i
   Points3d local;
   local.reserve(members.size());
   for (int i : members) local.push_back(planar[static_cast<std::size_t>(i)]);
-  std::vector<int> parent(local.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  const auto find = [&](int x) {
-    while (parent[static_cast<std::size_t>(x)] != x) {
-      parent[static_cast<std::size_t>(x)] =
-          parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
-      x = parent[static_cast<std::size_t>(x)];
-    }
-    return x;
-  };
+  detail::DisjointSets sets(local.size());
   const PointGrid grid(local, link);
   for (std::size_t i = 0; i < local.size(); ++i) {
-    grid.forNeighbours(local[i], link, [&](int j) {
-      const int a = find(static_cast<int>(i)), b = find(j);
-      if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-    });
+    grid.forNeighbours(local[i], link, [&](int j) { sets.unite(static_cast<int>(i), j); });
   }
   std::vector<std::vector<int>> out;
   std::vector<int> slot(local.size(), -1);
   for (std::size_t i = 0; i < local.size(); ++i) {
-    const int root = find(static_cast<int>(i));
+    const int root = sets.find(static_cast<int>(i));
     if (slot[static_cast<std::size_t>(root)] < 0) {
       slot[static_cast<std::size_t>(root)] = static_cast<int>(out.size());
       out.emplace_back();
@@ -130,7 +125,7 @@ std::vector<Indices> standingParts(const Points3d& points, const Eigen::Vector3d
     std::vector<double> along;
     along.reserve(all.size());
     for (int i : all) along.push_back(alongOf(i));
-    if (top < kTallRatio * (quantile(along, kHighQuantile) - quantile(along, kLowQuantile))) {
+    if (top < kTallRatio * innerRange(along)) {
       return {all};
     }
   }
@@ -179,7 +174,7 @@ std::vector<Indices> standingParts(const Points3d& points, const Eigen::Vector3d
       sum += height[static_cast<std::size_t>(i)];
     }
     layer.height = sum / static_cast<double>(layer.points.size());
-    const double width = quantile(along, kHighQuantile) - quantile(along, kLowQuantile);
+    const double width = innerRange(along);
     layer.log_width = std::log(std::max(width, 2.0 * spacing));
   }
 
