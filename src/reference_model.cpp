@@ -178,7 +178,11 @@ std::shared_ptr<const ReferenceModel> buildReferenceModelInUpFrame(
     model->visibility.add(std::move(image));
   }
   model->kept = s.pre.kept;
-  if (params.segmentation.hidden.segments) model->structure.build(reference, s.pre.kept, threads);
+  if (params.segmentation.hidden.segments) {
+    model->structure.build(reference, s.pre.kept, threads);
+    // Test 3 of the hidden-segment rule sums the structure about its points (hidden_segments.h).
+    model->structure.prepareMoments();
+  }
   if (summary) {
     model->explained_log_density = summary->explained_log_density;
   } else if (params.segmentation.map_likelihood_quantile > 0 && !model->gmm.empty()) {

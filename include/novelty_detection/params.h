@@ -224,6 +224,7 @@ struct HiddenParams {
   double max_growth = 1.0;
   double ring_factor = 4.0;
   double plane_factor = 0.5;
+  double parallel_factor = 2.0;
   double max_coplanar = 0.25;
   double outline_factor = 2.0;
   double min_free_edge = 0.25;
@@ -256,6 +257,12 @@ struct HiddenParams {
     f("hidden_plane_factor", plane_factor,
       {"hidden segments: a structure point within hidden_plane_factor * tau of the segment's "
        "plane continues it",
+       0.0, 1000.0});
+    f("hidden_parallel_factor", parallel_factor,
+      {"hidden segments: a structure point within hidden_parallel_factor * tau of the "
+       "segment's plane whose own surface is parallel to it continues it too (a map seen from "
+       "a slightly wrong pose lies beside the sweep's surfaces, offset in proportion to range); "
+       "0: only hidden_plane_factor",
        0.0, 1000.0});
     f("hidden_max_coplanar", max_coplanar,
       {"hidden segments: the segment continues the map (revealed, not novel) when at least "

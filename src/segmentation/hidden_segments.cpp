@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <map>
 #include <set>
 #include <tuple>
 
@@ -38,6 +39,27 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   std::vector<char> seen;
   const double radius = params.hidden.ring_factor * ctx.tau;
   const double on_plane = params.hidden.plane_factor * ctx.tau;
+  const double beside = params.hidden.parallel_factor * ctx.tau;
+  const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
+  // Whether the structure around point `id` is a plane parallel to the segment's, asked once
+  // per cell of tau (the surface measured at the first point asked in it; it spans 2 tau).
+  std::map<std::tuple<long long, long long, long long>, bool> parallel_in;
+  const auto parallel = [&](int id) {
+    const Eigen::Vector3f q = ctx.structure->point(id);
+    const Eigen::Vector3d c = (q.cast<double>() / ctx.tau).array().floor();
+    const auto [it, added] = parallel_in.emplace(
+        std::make_tuple(static_cast<long long>(c.x()), static_cast<long long>(c.y()),
+                        static_cast<long long>(c.z())),
+        false);
+    if (!added) return it->second;
+    const NearestNeighbourIndex::Neighbourhood nb =
+        ctx.structure->neighbourhood(q, kLocalPlaneFactor * ctx.tau);
+    if (nb.count < static_cast<std::size_t>(kMinLocalPoints)) return false;
+    const Plane local = detail::planeOf(nb.centroid, nb.covariance);
+    it->second = local.sd(0) < kMaxLocalFlatness * local.sd(1) &&
+                 std::abs(local.normal.dot(plane.normal)) >= min_cos;
+    return it->second;
+  };
   const double voxel = std::max(0.5 * radius, 1e-3);
   for (int i : segment) {
     const Eigen::Vector3f p = (*ctx.current)[i].getVector3fMap();
@@ -57,7 +79,13 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
       if (ctx.gone && static_cast<std::size_t>(id) < ctx.gone->size() && (*ctx.gone)[id]) continue;
       ++e->ring;
       const Eigen::Vector3d q = ctx.structure->point(id).cast<double>();
-      if (std::abs(plane.normal.dot(q - plane.centroid)) <= on_plane) ++e->ring_coplanar;
+      const double off = std::abs(plane.normal.dot(q - plane.centroid));
+      if (off <= on_plane) {
+        ++e->ring_coplanar;
+      } else if (off <= beside && parallel(id)) {
+        ++e->ring_coplanar;
+        ++e->ring_parallel;
+      }
     }
   }
 }

@@ -13,8 +13,13 @@
 // 3. it is not a continuation of mapped structure: of the reference points (no ground, not
 //    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
 //    that radius), at least one exists and fewer than
-//    max_coplanar lie within plane_factor * tau of its plane (a revealed wall continues the
-//    mapped wall around it; a door leaf at a new angle meets the map only along its hinge);
+//    max_coplanar lie on its plane (a revealed wall continues the mapped wall around it; a
+//    door leaf at a new angle meets the map only along its hinge). A structure point lies on
+//    it within plane_factor * tau, or within parallel_factor * tau where its own surface
+//    (the structure within kLocalPlaneFactor * tau of it) is a plane parallel to the
+//    segment's, normals within kParallelDeg: a sweep registered with a small rotation error
+//    sees the mapped wall beside the revealed one, offset by the error times the range,
+//    while the wall a leaf's hinge meets crosses the leaf's plane at the leaf's angle;
 // 4. it stands in space: of the current sweep's rays (points) in the cells of its own
 //    range image within outline_factor * tau (at the segment's median range) around the
 //    segment's cells, those that end past its plane by more than the visibility margin are
@@ -45,9 +50,18 @@ struct HiddenSegmentEvidence {
   double thickness_m = 0.0;  ///< least principal standard deviation (across the plane)
   int ring = 0;              ///< reference structure points around it (not disappeared)
   int ring_coplanar = 0;     ///< of those, on its plane
+  int ring_parallel = 0;     ///< of those, beyond plane_factor * tau: parallel and near
   int past = 0;              ///< outline rays of the current sweep that reach past its plane
   int on = 0;                ///< outline rays that end on its plane
 };
+
+/// Test 3's local surface of a structure point: the structure within kLocalPlaneFactor * tau,
+/// at least kMinLocalPoints points, planar (least principal spread below kMaxLocalFlatness
+/// of the second), normal within kParallelDeg of the segment's.
+constexpr double kLocalPlaneFactor = 2.0;
+constexpr int kMinLocalPoints = 6;
+constexpr double kMaxLocalFlatness = 0.5;
+constexpr double kParallelDeg = 20.0;
 
 /// A current point's cell in the current sweep's range image, and its range.
 struct RayCell {
