@@ -68,6 +68,23 @@ int doorId(const sim::ScenePair& s) {
   return 0;
 }
 
+/// The rule's context for `current` against `reference`: all of it structure, none gone.
+struct MappedStructure {
+  NearestNeighbourIndex structure;
+  std::vector<std::uint8_t> gone;
+  HiddenSegmentContext ctx;
+  MappedStructure(const Cloud& reference, const Cloud& current, double tau)
+      : gone(reference.size(), 0) {
+    structure.build(reference);
+    ctx.current = &current;
+    ctx.structure = &structure;
+    ctx.gone = &gone;
+    ctx.tau = tau;
+  }
+  MappedStructure(const MappedStructure&) = delete;
+  MappedStructure& operator=(const MappedStructure&) = delete;
+};
+
 }  // namespace
 
 TEST(HiddenSegments, RuleClauses) {
@@ -240,14 +257,8 @@ TEST(HiddenSegments, RevealedSurfacesAreNoContinuation) {
   Indices hidden = far_leaf;
   hidden.insert(hidden.end(), hole.begin(), hole.end());
   std::sort(hidden.begin(), hidden.end());
-  NearestNeighbourIndex structure;
-  structure.build(reference);
-  const std::vector<std::uint8_t> gone(reference.size(), 0);
-  HiddenSegmentContext ctx;
-  ctx.current = &current;
-  ctx.structure = &structure;
-  ctx.gone = &gone;
-  ctx.tau = 0.03;
+  const MappedStructure mapped(reference, current, 0.03);
+  const HiddenSegmentContext& ctx = mapped.ctx;
   const SegmentationParams params;
   EXPECT_TRUE(revealedSurface(ctx, hole, params));
   EXPECT_FALSE(revealedSurface(ctx, far_leaf, params));  // nothing mapped around it
@@ -340,14 +351,8 @@ TEST(HiddenSegments, RevealedWallContinuesAMapSeenWithAPoseError) {
       p.getVector3fMap() = Eigen::Vector3f(3.f, 4.0f, s * k) + s * j * along;
       current.push_back(p);
     }
-  NearestNeighbourIndex structure;
-  structure.build(reference);
-  const std::vector<std::uint8_t> gone(reference.size(), 0);
-  HiddenSegmentContext ctx;
-  ctx.current = &current;
-  ctx.structure = &structure;
-  ctx.gone = &gone;
-  ctx.tau = 0.06;
+  const MappedStructure mapped(reference, current, 0.06);
+  const HiddenSegmentContext& ctx = mapped.ctx;
   SegmentationParams params;
   const auto evidence = [&](const Indices& points) {
     const std::vector<Visibility> vis(points.size(), Visibility::kOccluded);
