@@ -184,9 +184,13 @@ std::string assembleOnceListening(const std::string& play, const fs::path& out,
          "; wait $launch; cat " + log.string() + "; echo listening: $listening";
 }
 
-/// rosbag play of `bag` with its clock, `args` added.
+/// rosbag play of the scan lines and tf of `bag` with its clock, `args` added. Playback
+/// starts once the assembler's subscriptions to both are connected: a first tf message sent
+/// before then (a loaded machine) is lost to it, and with it the first line, whose transform
+/// tf then can only extrapolate.
 std::string playBag(const fs::path& bag, const std::string& args) {
-  return "timeout 120 rosbag play --clock -q -d 2 " + args + " " + bag.string();
+  return "timeout 120 rosbag play --clock -q -d 2 --wait-for-subscribers " + args + " " +
+         bag.string() + " --topics /scan /tf";
 }
 
 /// The points of each of the first `sweeps` sweeps of the reference directory `dir`.
