@@ -29,12 +29,20 @@ bool continuesMap(const HiddenSegmentEvidence& e, const SegmentationParams& para
   return e.ring > 0 && e.ring_coplanar >= params.hidden.max_coplanar * e.ring;
 }
 
+// The cell of side `size` holding p, as a key (the cell itself: a hashed key could collide).
+using CellKey = std::tuple<long long, long long, long long>;
+CellKey cellOf(const Eigen::Vector3f& p, double size) {
+  const Eigen::Vector3d c = (p.cast<double>() / size).array().floor();
+  return {static_cast<long long>(c.x()), static_cast<long long>(c.y()),
+          static_cast<long long>(c.z())};
+}
+
 // Test 3: reference structure around the segment, and how much of it lies on its plane. The
 // segment is queried at one point per voxel of half the ring radius (the ring is the
 // structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
 void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const Plane& plane,
                  const SegmentationParams& params, HiddenSegmentEvidence* e) {
-  std::set<std::tuple<long long, long long, long long>> voxels;
+  std::set<CellKey> voxels;
   std::vector<int> ids;
   std::vector<char> seen;
   const double radius = params.hidden.ring_factor * ctx.tau;
@@ -43,14 +51,10 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
   // Whether the structure around point `id` is a plane parallel to the segment's, asked once
   // per cell of tau (the surface measured at the first point asked in it; it spans 2 tau).
-  std::map<std::tuple<long long, long long, long long>, bool> parallel_in;
+  std::map<CellKey, bool> parallel_in;
   const auto parallel = [&](int id) {
     const Eigen::Vector3f q = ctx.structure->point(id);
-    const Eigen::Vector3d c = (q.cast<double>() / ctx.tau).array().floor();
-    const auto [it, added] = parallel_in.emplace(
-        std::make_tuple(static_cast<long long>(c.x()), static_cast<long long>(c.y()),
-                        static_cast<long long>(c.z())),
-        false);
+    const auto [it, added] = parallel_in.emplace(cellOf(q, ctx.tau), false);
     if (!added) return it->second;
     const NearestNeighbourIndex::Neighbourhood nb =
         ctx.structure->neighbourhood(q, kLocalPlaneFactor * ctx.tau);
@@ -63,13 +67,7 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double voxel = std::max(0.5 * radius, 1e-3);
   for (int i : segment) {
     const Eigen::Vector3f p = (*ctx.current)[i].getVector3fMap();
-    const Eigen::Vector3d v = (p.cast<double>() / voxel).array().floor();
-    // The voxel itself as the key (a hashed key could collide and skip a query point).
-    if (!voxels
-             .emplace(static_cast<long long>(v.x()), static_cast<long long>(v.y()),
-                      static_cast<long long>(v.z()))
-             .second)
-      continue;
+    if (!voxels.insert(cellOf(p, voxel)).second) continue;
     ids.clear();
     ctx.structure->withinIds(p, radius, &ids);
     for (int id : ids) {
