@@ -184,13 +184,26 @@ std::string assembleOnceListening(const std::string& play, const fs::path& out,
          "; wait $launch; cat " + log.string() + "; echo listening: $listening";
 }
 
-/// rosbag play of the scan lines and tf of `bag` with its clock, `args` added. Playback
-/// starts once the assembler's subscriptions to both are connected: a first tf message sent
-/// before then (a loaded machine) is lost to it, and with it the first line, whose transform
-/// tf then can only extrapolate.
-std::string playBag(const fs::path& bag, const std::string& args) {
-  return "timeout 120 rosbag play --clock -q -d 2 --wait-for-subscribers " + args + " " +
-         bag.string() + " --topics /scan /tf";
+/// rosbag play of the scan lines and tf of `bag` with its clock, `args` added, as player
+/// `name`. The player starts paused and is let go (a space on its standard input) once the
+/// assembler's own connections to it for /scan and /tf are up (`rosnode info`): the bag's first
+/// tf message, sent before the assembler has connected, is lost to it, and with it the first
+/// line, whose transform tf then can only extrapolate. Waiting for any subscriber is not
+/// enough: the saver listens to /tf too.
+std::string playBag(const fs::path& bag, const std::string& args, const std::string& name) {
+  const std::string fifo = "\"$TMPDIR_PLAY/" + name + "\"";
+  const std::string connected =
+      "c=$(rosnode info /tilt_scan_assembler 2>/dev/null | sed -n '/^Connections/,$p'); "
+      "echo \"$c\" | grep -A1 '^ \\* topic: /scan$' | grep -q '/" +
+      name +
+      " ' && "
+      "echo \"$c\" | grep -A1 '^ \\* topic: /tf$' | grep -q '/" +
+      name + " '";
+  return "TMPDIR_PLAY=$(mktemp -d); mkfifo " + fifo + "; timeout 120 rosbag play --clock -q " +
+         "--pause " + args + " " + bag.string() + " --topics /scan /tf __name:=" + name + " < " +
+         fifo + " & player=$!; exec 3>" + fifo + "; for i in $(seq 1 240); do if " + connected +
+         "; then break; fi; sleep 0.5; done; printf ' ' >&3; wait $player; exec 3>&-; rm -r " +
+         "\"$TMPDIR_PLAY\"";
 }
 
 /// The points of each of the first `sweeps` sweeps of the reference directory `dir`.
@@ -213,13 +226,13 @@ TEST_F(BuildReference, TheAssemblerKeepsEveryLineAtAnyPlaybackRate) {
   for (const char* rate : {"0.2", "1", "5"}) {
     const fs::path out = dir_ / (std::string("assembled_") + rate);
     const ProcessRun launch =
-        run(assembleOnceListening(playBag(bag, std::string("-r ") + rate), out,
+        run(assembleOnceListening(playBag(bag, std::string("-r ") + rate, "bag_player"), out,
                                   dir_ / (std::string("launch_") + rate + ".log")));
     ASSERT_NE(launch.out.find("listening: 1"), std::string::npos) << rate << "\n" << launch.out;
     ASSERT_NE(launch.out.find("saved 2 sweeps"), std::string::npos) << rate << "\n" << launch.out;
     const std::vector<std::size_t> sizes = sweepSizes(out, 2);
-    EXPECT_EQ(sizes[0], ref_points) << "rate " << rate;
-    EXPECT_EQ(sizes[1], cur_points) << "rate " << rate;
+    EXPECT_EQ(sizes[0], ref_points) << "rate " << rate << "\n" << launch.out;
+    EXPECT_EQ(sizes[1], cur_points) << "rate " << rate << "\n" << launch.out;
   }
 }
 
@@ -231,12 +244,12 @@ TEST_F(BuildReference, TheAssemblerKeepsTheLinesBeforeAPause) {
   const std::size_t cur_points = loadCloud((dir_ / "scene" / "cur.pcd").string()).size();
   const fs::path bag = dir_ / "scene" / "scans.bag";
   const fs::path out = dir_ / "assembled_pause";
-  const ProcessRun launch =
-      run(assembleOnceListening(playBag(bag, "-u 0.01") + "; sleep 2; " + playBag(bag, "-s 0.01"),
-                                out, dir_ / "launch_pause.log"));
+  const ProcessRun launch = run(assembleOnceListening(
+      playBag(bag, "-u 0.01", "bag_head") + "; sleep 2; " + playBag(bag, "-s 0.01", "bag_rest"),
+      out, dir_ / "launch_pause.log"));
   ASSERT_NE(launch.out.find("listening: 1"), std::string::npos) << launch.out;
   ASSERT_NE(launch.out.find("saved 2 sweeps"), std::string::npos) << launch.out;
   const std::vector<std::size_t> sizes = sweepSizes(out, 2);
-  EXPECT_EQ(sizes[0], ref_points);
-  EXPECT_EQ(sizes[1], cur_points);
+  EXPECT_EQ(sizes[0], ref_points) << launch.out;
+  EXPECT_EQ(sizes[1], cur_points) << launch.out;
 }
