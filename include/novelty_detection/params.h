@@ -322,7 +322,9 @@ struct SegmentationParams {
       {"and only when their footprints on the floor (x, y) are closer than this many link "
        "radii: the gaps between tilt lines on one object are vertical, while two objects side "
        "by side are apart on the floor (and, with the sweep's origin known, pieces whose "
-       "footprints are apart stay apart when the sweep's beams passed between them)",
+       "footprints are apart stay apart when the sweep's beams passed between them, or when "
+       "it saw one in front of the other: more than this many link radii deeper along "
+       "neighbouring rays)",
        0.0, 1000.0});
     f("min_segment_points", min_segment_points,
       {"segments with fewer points are dropped", 1, 100000000});

@@ -1,12 +1,15 @@
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
 #include "common/knn.h"
+#include "novelty_detection/segmentation/depth_jumps.h"
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <tuple>
 #include <utility>
 
 namespace novelty_detection {
@@ -235,6 +238,9 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
   const std::size_t least = static_cast<std::size_t>(std::max(1, params.min_segment_points));
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
+  // Stacked pieces merge first; pieces side by side then merge nearest first, unless that
+  // would join two groups, each large enough to be a segment, seen one in front of the other.
+  std::vector<std::tuple<float, int, int>> side_by_side;
   for (std::size_t a = 0; a < np; ++a) {
     for (std::size_t b = a + 1; b < np; ++b) {
       const Eigen::Vector3f sep =
@@ -252,7 +258,67 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
                         (!two_objects || !can_look || !seenPast(a, b));
       const bool stacked =
           sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
-      if (same || stacked) parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+      if (stacked)
+        parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+      else if (same)
+        side_by_side.emplace_back(sep.norm(), static_cast<int>(a), static_cast<int>(b));
+    }
+  }
+  if (!side_by_side.empty()) {
+    std::sort(side_by_side.begin(), side_by_side.end());
+    // Two objects on the same tilt lines, the nearer hiding part of the other, meet at depth
+    // jumps larger than the footprint gap one object's pieces may show, the farther seen at
+    // heights the nearer also covers, and their footprints apart. A box's top seen past its
+    // front edge is as high as that edge; its side seen past a corner, or a person's arm past
+    // the trunk, stands on or beside its footprint.
+    std::vector<char> involved(np, 0);  // pieces of the groups side-by-side merges may join
+    for (const auto& [sep, a, b] : side_by_side) involved[find(a)] = involved[find(b)] = 1;
+    for (std::size_t a = 0; a < np; ++a) involved[a] = involved[find(static_cast<int>(a))];
+    std::optional<std::vector<DepthJump>> jumps;  // found when first needed
+    std::vector<std::size_t> size(np);
+    std::vector<float> top(np, -std::numeric_limits<float>::infinity());
+    for (std::size_t a = 0; a < np; ++a) {
+      const int r = find(static_cast<int>(a));
+      size[r] += pieces[a].size();
+      top[r] = std::max(top[r], hi[a].z());
+    }
+    // The points of group rb seen behind group ra's, below ra's top less a link radius.
+    const auto behind = [&](int ra, int rb) {
+      std::vector<int> far;
+      for (const DepthJump& j : *jumps)
+        if (find(j.near) == ra && find(j.far) == rb &&
+            j.far_z < top[ra] - static_cast<float>(link_radius))
+          far.push_back(j.far_point);
+      std::sort(far.begin(), far.end());
+      return static_cast<std::size_t>(std::unique(far.begin(), far.end()) - far.begin());
+    };
+    // Whether no point of group rb stands within kInFrontApartLinks link radii of group ra's
+    // on the floor plan.
+    const double apart = kInFrontApartLinks * link_radius;
+    const auto footprintsApart = [&](int ra, int rb) {
+      std::vector<Eigen::Vector3f> plan;
+      for (std::size_t a = 0; a < np; ++a)
+        if (find(static_cast<int>(a)) == ra)
+          for (int i : pieces[a]) plan.emplace_back(cloud[i].x, cloud[i].y, 0.f);
+      const detail::KnnTree tree(plan);
+      for (std::size_t b = 0; b < np; ++b)
+        if (find(static_cast<int>(b)) == rb)
+          for (int i : pieces[b])
+            if (tree.anyWithin(Eigen::Vector3f(cloud[i].x, cloud[i].y, 0.f), apart)) return false;
+      return true;
+    };
+    const auto inFront = [&](int ra, int rb) {
+      if (!can_look || size[ra] < least || size[rb] < least) return false;
+      if (!jumps) jumps = depthJumps(cloud, pieces, sweep.origin, link_radius, floor_gap, involved);
+      return behind(ra, rb) + behind(rb, ra) >= kSeenGapBeams && footprintsApart(ra, rb);
+    };
+    for (const auto& [sep, a, b] : side_by_side) {
+      const int ra = find(a), rb = find(b);
+      if (ra == rb) continue;
+      if (inFront(ra, rb)) continue;
+      parent[ra] = rb;
+      size[rb] += size[ra];
+      top[rb] = std::max(top[rb], top[ra]);
     }
   }
   std::vector<Indices> merged(np);
