@@ -11,11 +11,11 @@
 namespace novelty_detection {
 namespace {
 
-/// One piece seen from the origin: its points' rays (unit directions), ranges, heights and
-/// cloud indices, the box around the rays, and an index over them.
+/// One piece seen from the origin: its points' rays (unit directions), ranges and cloud
+/// indices, the box around the rays, and an index over them.
 struct PieceRays {
   std::vector<Eigen::Vector3f> rays;
-  std::vector<float> range, height;
+  std::vector<float> range;
   std::vector<int> index;
   Eigen::AlignedBox3f box;
   detail::KnnTree tree;
@@ -38,7 +38,6 @@ std::vector<DepthJump> depthJumps(const Cloud& cloud, const std::vector<Indices>
       if (!(r > 0.f) || !std::isfinite(r)) continue;
       s.rays.push_back(d / r);
       s.range.push_back(r);
-      s.height.push_back(cloud[i].z);
       s.index.push_back(i);
       s.box.extend(s.rays.back());
     }
@@ -47,7 +46,7 @@ std::vector<DepthJump> depthJumps(const Cloud& cloud, const std::vector<Indices>
   // Each point p as the nearer one: the other pieces' points on rays within link_radius_m of
   // p's at p's range, more than jump_m farther. Only pieces whose rays come that close are
   // searched, so the inside of a piece costs one box test per other piece.
-  std::vector<std::tuple<int, int, int>> found;  // (far point, near piece, far piece)
+  std::vector<std::tuple<int, int, int>> found;  // (far piece, far point, near piece)
   std::vector<int> near;
   for (std::size_t a = 0; a < seen.size(); ++a) {
     const PieceRays& sa = seen[a];
@@ -60,16 +59,13 @@ std::vector<DepthJump> depthJumps(const Cloud& cloud, const std::vector<Indices>
         sb.tree.within(sa.rays[k], w, &near);
         for (int q : near)
           if (sb.range[q] - sa.range[k] > jump_m)
-            found.emplace_back(q, static_cast<int>(a), static_cast<int>(b));
+            found.emplace_back(static_cast<int>(b), q, static_cast<int>(a));
       }
     }
   }
-  std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) {
-    return std::tie(std::get<2>(x), std::get<0>(x), std::get<1>(x)) <
-           std::tie(std::get<2>(y), std::get<0>(y), std::get<1>(y));
-  });
+  std::sort(found.begin(), found.end());
   found.erase(std::unique(found.begin(), found.end()), found.end());
-  for (const auto& [q, a, b] : found) out.push_back({a, b, seen[b].index[q], seen[b].height[q]});
+  for (const auto& [b, q, a] : found) out.push_back({a, b, seen[b].index[q]});
   return out;
 }
 

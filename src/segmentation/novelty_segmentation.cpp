@@ -1,5 +1,6 @@
 #include "novelty_detection/segmentation/novelty_segmentation.h"
 
+#include "common/disjoint_sets.h"
 #include "common/knn.h"
 #include "novelty_detection/segmentation/depth_jumps.h"
 
@@ -191,7 +192,7 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       linkComponents(cloud, points, params.link_factor, 1, &link_radius, spacing);
   if (link_radius_m) *link_radius_m = link_radius;
   const std::size_t np = pieces.size();
-  std::vector<int> dominant(np), parent(np);
+  std::vector<int> dominant(np);
   std::vector<Eigen::Vector3f> lo(np), hi(np);
   for (std::size_t a = 0; a < np; ++a) {
     std::vector<int> votes(static_cast<std::size_t>(std::max(0, num_gaussians)), 0);
@@ -204,12 +205,9 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       hi[a] = hi[a].cwiseMax(cloud[i].getVector3fMap());
     }
     dominant[a] = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
-    parent[a] = static_cast<int>(a);
   }
-  auto find = [&parent](int a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  };
+  detail::DisjointSets sets(np);
+  const auto find = [&sets](int a) { return sets.find(a); };
   std::vector<char> novel_mask;
   const bool can_look = sweep.kept && sweep.origin_known;
   if (can_look) {
@@ -259,7 +257,7 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       const bool stacked =
           sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
       if (stacked)
-        parent[find(static_cast<int>(a))] = find(static_cast<int>(b));
+        sets.unite(static_cast<int>(a), static_cast<int>(b));
       else if (same)
         side_by_side.emplace_back(sep.norm(), static_cast<int>(a), static_cast<int>(b));
     }
@@ -271,9 +269,6 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     // heights the nearer also covers, and their footprints apart. A box's top seen past its
     // front edge is as high as that edge; its side seen past a corner, or a person's arm past
     // the trunk, stands on or beside its footprint.
-    std::vector<char> involved(np, 0);  // pieces of the groups side-by-side merges may join
-    for (const auto& [sep, a, b] : side_by_side) involved[find(a)] = involved[find(b)] = 1;
-    for (std::size_t a = 0; a < np; ++a) involved[a] = involved[find(static_cast<int>(a))];
     std::optional<std::vector<DepthJump>> jumps;  // found when first needed
     std::vector<std::size_t> size(np);
     std::vector<float> top(np, -std::numeric_limits<float>::infinity());
@@ -287,7 +282,7 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       std::vector<int> far;
       for (const DepthJump& j : *jumps)
         if (find(j.near) == ra && find(j.far) == rb &&
-            j.far_z < top[ra] - static_cast<float>(link_radius))
+            cloud[j.far_point].z < top[ra] - static_cast<float>(link_radius))
           far.push_back(j.far_point);
       std::sort(far.begin(), far.end());
       return static_cast<std::size_t>(std::unique(far.begin(), far.end()) - far.begin());
@@ -309,16 +304,22 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     };
     const auto inFront = [&](int ra, int rb) {
       if (!can_look || size[ra] < least || size[rb] < least) return false;
-      if (!jumps) jumps = depthJumps(cloud, pieces, sweep.origin, link_radius, floor_gap, involved);
+      if (!jumps) {  // among the pieces of the groups side-by-side merges may join
+        std::vector<char> involved(np, 0);
+        for (const auto& [sep, a, b] : side_by_side) involved[find(a)] = involved[find(b)] = 1;
+        for (std::size_t a = 0; a < np; ++a) involved[a] = involved[find(static_cast<int>(a))];
+        jumps = depthJumps(cloud, pieces, sweep.origin, link_radius, floor_gap, involved);
+      }
       return behind(ra, rb) + behind(rb, ra) >= kSeenGapBeams && footprintsApart(ra, rb);
     };
     for (const auto& [sep, a, b] : side_by_side) {
       const int ra = find(a), rb = find(b);
       if (ra == rb) continue;
       if (inFront(ra, rb)) continue;
-      parent[ra] = rb;
-      size[rb] += size[ra];
-      top[rb] = std::max(top[rb], top[ra]);
+      sets.unite(ra, rb);
+      const int r = find(ra);
+      size[r] = size[ra] + size[rb];
+      top[r] = std::max(top[ra], top[rb]);
     }
   }
   std::vector<Indices> merged(np);

@@ -109,7 +109,7 @@ TEST(DepthJumps, PiecesOnNeighbouringRaysAtDifferentDepths) {
   for (const DepthJump& j : jumps) {
     EXPECT_EQ(j.near, 0);
     EXPECT_EQ(j.far, 1);
-    EXPECT_NEAR(j.far_z, 0.f, 1e-5f);
+    EXPECT_NEAR(c[j.far_point].z, 0.f, 1e-5f);
     ++behind_0;
   }
   // Piece 1's points within 0.1 m across the rays of piece 0's last point (azimuth -0.25

@@ -16,7 +16,6 @@ struct DepthJump {
   int near = 0;
   int far = 0;
   int far_point = 0;  ///< the far point's index in the cloud
-  float far_z = 0.f;  ///< its height
 };
 
 /// The depth jumps between `pieces` (disjoint sets of finite points of `cloud`) seen from
