@@ -6,6 +6,7 @@
 #include <cmath>
 #include <deque>
 #include <map>
+#include <optional>
 #include <set>
 #include <tuple>
 
@@ -50,18 +51,25 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double beside = params.hidden.parallel_factor * ctx.tau;
   const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
   // Whether the structure around point `id` is a plane parallel to the segment's, asked once
-  // per cell of tau (the surface measured at the first point asked in it; it spans 2 tau).
+  // per cell of tau (the surface measured at the first point asked in it).
   std::map<CellKey, bool> parallel_in;
   const auto parallel = [&](int id) {
     const Eigen::Vector3f q = ctx.structure->point(id);
     const auto [it, added] = parallel_in.emplace(cellOf(q, ctx.tau), false);
     if (!added) return it->second;
-    const NearestNeighbourIndex::Neighbourhood nb =
-        ctx.structure->neighbourhood(q, kLocalPlaneFactor * ctx.tau);
-    if (nb.count < static_cast<std::size_t>(kMinLocalPoints)) return false;
-    const Plane local = detail::planeOf(nb.centroid, nb.covariance);
-    it->second = local.sd(0) < kMaxLocalFlatness * local.sd(1) &&
-                 std::abs(local.normal.dot(plane.normal)) >= min_cos;
+    const auto plane_within = [&](double r) {
+      const NearestNeighbourIndex::Neighbourhood nb = ctx.structure->neighbourhood(q, r);
+      if (nb.count < static_cast<std::size_t>(kMinLocalPoints)) return std::optional<Plane>();
+      const Plane local = detail::planeOf(nb.centroid, nb.covariance);
+      if (!(local.sd(0) < kMaxLocalFlatness * local.sd(1)) ||
+          !(local.sd(1) >= kMinLocalWidth * ctx.tau))
+        return std::optional<Plane>();
+      return std::optional<Plane>(local);
+    };
+    const double r = kLocalPlaneFactor * ctx.tau;
+    std::optional<Plane> local = plane_within(r);
+    if (!local && 2.0 * r <= radius) local = plane_within(2.0 * r);
+    it->second = local && std::abs(local->normal.dot(plane.normal)) >= min_cos;
     return it->second;
   };
   const double voxel = std::max(0.5 * radius, 1e-3);

@@ -56,11 +56,17 @@ struct HiddenSegmentEvidence {
 };
 
 /// Test 3's local surface of a structure point: the structure within kLocalPlaneFactor * tau,
-/// at least kMinLocalPoints points, planar (least principal spread below kMaxLocalFlatness
-/// of the second), normal within kParallelDeg of the segment's.
+/// at least kMinLocalPoints points, a plane (least principal spread below kMaxLocalFlatness
+/// of the second, the second at least kMinLocalWidth * tau), normal within kParallelDeg of the
+/// segment's. Where that structure is no plane, the structure within twice the radius is asked
+/// once more (up to the ring's radius): far from a tilting laser the scan lines lie farther
+/// apart than 2 tau, and the structure within it is one scan line, whose points (range noise
+/// moves them along their rays) lie in the scan's plane, not the surface's; across that
+/// plane it spreads by the noise alone (about tau / 2.5).
 constexpr double kLocalPlaneFactor = 2.0;
 constexpr int kMinLocalPoints = 6;
 constexpr double kMaxLocalFlatness = 0.5;
+constexpr double kMinLocalWidth = 0.5;
 constexpr double kParallelDeg = 20.0;
 
 /// A current point's cell in the current sweep's range image, and its range.
