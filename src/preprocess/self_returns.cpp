@@ -57,6 +57,26 @@ Points nearInSensorFrame(const Cloud& cloud, const Indices& distinct, double min
   return near;
 }
 
+/// Marks the finite points of `cloud` closer than min_range to its sensor or inside `body`
+/// (sensor frame), as nearInSensorFrame() does, into `mask` (one flag per point), and counts
+/// them.
+void markNearOrInBody(const Cloud& cloud, double min_range, const Eigen::AlignedBox3f& body,
+                      std::vector<std::uint8_t>* mask, std::size_t* count) {
+  mask->assign(cloud.size(), 0);
+  *count = 0;
+  if (!(min_range > 0.0) && body.isEmpty()) return;
+  const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
+  const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f d = cloud[i].getVector3fMap() - o;
+    if (!d.allFinite()) continue;
+    if (d.norm() < min_range || (!body.isEmpty() && body.contains(Rt * d))) {
+      (*mask)[i] = 1;
+      ++*count;
+    }
+  }
+}
+
 /// The points of `cloud` at `indices` (map frame).
 Points pointsAt(const Cloud& cloud, const Indices& indices) {
   Points out;
@@ -238,7 +258,13 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       (current.sensor_origin_.head<3>() - reference.sensor_origin_.head<3>()).norm() +
       max_range * headingChange(reference.sensor_orientation_, current.sensor_orientation_);
   s.sought = moved >= novelty_distance_m && max_range > 0.0;
-  if (!s.sought) max_range = 0.0;
+  if (!s.sought) {
+    // Only min_range_m and body_box: a test of each point on its own (a repeat of a position
+    // gets its first occurrence's mark anyway).
+    markNearOrInBody(reference, params.min_range_m, body, &s.reference, &s.reference_count);
+    markNearOrInBody(current, params.min_range_m, body, &s.current, &s.current_count);
+    return s;
+  }
   std::unique_ptr<SelfReturnReference::Impl> own;
   const SelfReturnReference::Impl* ref = prepared && s.sought ? prepared->impl() : nullptr;
   if (!ref || !ref->matches(params, max_range) || ref->mask.size() != reference.size()) {
