@@ -119,7 +119,9 @@ struct AlignmentResult {
   double rotation_deg = 0.0;     ///< rotation angle of the correction
   double fitness_m = 0.0;        ///< RMS point-to-plane residual of the inliers [m]
   double inlier_fraction = 0.0;  ///< share of the sampled points that are inliers
-  int samples = 0;               ///< sampled current points
+  /// Share of the robust cost at the given pose that the correction removes (min_cost_reduction).
+  double cost_reduction = 0.0;
+  int samples = 0;  ///< sampled current points
   int iterations = 0;
   int degenerate_directions = 0;  ///< of 6; left unchanged (not corrected)
   double ms = 0.0;                ///< wall time of the estimate

@@ -31,6 +31,14 @@ double tukey(double r, double c) {
   return std::abs(u) >= 1.0 ? 0.0 : (1.0 - u * u) * (1.0 - u * u);
 }
 
+/// Tukey's loss for that weight, scaled to 1 at and beyond the cut-off c.
+double tukeyRho(double r, double c) {
+  const double u = r / c;
+  if (std::abs(u) >= 1.0) return 1.0;
+  const double v = 1.0 - u * u;
+  return 1.0 - v * v * v;
+}
+
 Eigen::Isometry3d increment(const Vec6& d, const Eigen::Vector3d& centre) {
   // p -> R(omega) (p - centre) + centre + v: the rotation acts about the sample centroid, so
   // rotation and translation are nearly decoupled in the normal equations.
@@ -118,6 +126,20 @@ AlignmentResult FineAligner::estimate(const AlignmentReference& reference,
   };
   std::vector<Match> matches;
   matches.reserve(samples.size());
+  // The planes about each sample's cell: its own cell's, then its 26 neighbours' in a fixed
+  // order, looked up once while the sample stays in that cell (the corrections move samples
+  // by centimetres, the cells span decimetres).
+  struct PlanesNear {
+    Eigen::Vector3i cell;
+    bool known = false, around_known = false;
+    int own = -1;
+    std::vector<int> around;
+  };
+  std::vector<PlanesNear> near(samples.size());
+  const auto planeIn = [&ref](const Eigen::Vector3i& cc) {
+    const auto it = ref.plane_of_cell.find(CellGrid::key(cc));
+    return it == ref.plane_of_cell.end() ? -1 : it->second;
+  };
   // Matches every sample to a plane within `limit` of it (see `consider`), its projection
   // within one cell of that plane's centroid.
   auto correspond = [&](double limit) {
@@ -126,29 +148,42 @@ AlignmentResult FineAligner::estimate(const AlignmentReference& reference,
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const Eigen::Vector3d p = T * samples[i];
       const Eigen::Vector3i c = ref.grid.cellOf(p);
+      PlanesNear& nb = near[i];
+      if (!nb.known || nb.cell != c) {
+        nb.known = true;
+        nb.around_known = false;
+        nb.cell = c;
+        nb.own = planeIn(c);
+      }
       int best = -1;
       double best_d2 = std::numeric_limits<double>::infinity();
       // The plane of the sample's own cell, else of the neighbouring cell whose centroid is
       // nearest (not the smallest |r|: that would pick whichever noisy plane agrees best and
       // bias the pose towards the noise).
-      auto consider = [&](const Eigen::Vector3i& cc) {
-        const auto it = ref.plane_of_cell.find(CellGrid::key(cc));
-        if (it == ref.plane_of_cell.end()) return;
-        const auto& pl = ref.planes[it->second];
+      auto consider = [&](int plane) {
+        const auto& pl = ref.planes[plane];
         const Eigen::Vector3d d = p - pl.centroid;
         const double r = pl.normal.dot(d);
         const double d2 = d.squaredNorm();
         if (std::abs(r) > limit || (d - r * pl.normal).squaredNorm() > reach2 || d2 >= best_d2)
           return;
         best_d2 = d2;
-        best = it->second;
+        best = plane;
       };
-      consider(c);
+      if (nb.own >= 0) consider(nb.own);
       if (best < 0) {
-        for (int dx = -1; dx <= 1; ++dx)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz)
-              if (dx || dy || dz) consider(c + Eigen::Vector3i(dx, dy, dz));
+        if (!nb.around_known) {
+          nb.around_known = true;
+          nb.around.clear();
+          for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dz = -1; dz <= 1; ++dz)
+                if (dx || dy || dz) {
+                  const int plane = planeIn(c + Eigen::Vector3i(dx, dy, dz));
+                  if (plane >= 0) nb.around.push_back(plane);
+                }
+        }
+        for (const int plane : nb.around) consider(plane);
       }
       if (best >= 0) {
         const auto& pl = ref.planes[best];
@@ -224,8 +259,23 @@ AlignmentResult FineAligner::estimate(const AlignmentReference& reference,
     }
   }
 
-  // Fitness at the final pose, with the last cut-off.
+  // Fitness at the final pose, with the last cut-off, and the robust cost there and at the
+  // given pose (the same gate and cut-off): what the correction gains.
+  double weight_sum = 0.0;
+  for (const double w : sample_weight) weight_sum += w;
+  const auto cost = [&] {
+    double c = weight_sum;  // a sample matched to no plane costs 1
+    for (const auto& m : matches) c += sample_weight[m.sample] * (tukeyRho(m.r, cut) - 1.0);
+    return c;
+  };
+  const Eigen::Isometry3d solved = T;
+  T = Eigen::Isometry3d::Identity();
   correspond(gate);
+  const double cost_given = cost();
+  T = solved;
+  correspond(gate);
+  const double cost_solved = cost();
+  out.cost_reduction = cost_given > 0.0 ? (cost_given - cost_solved) / cost_given : 0.0;
   double sum2 = 0.0;
   int inliers = 0;
   for (const auto& m : matches) {
@@ -254,6 +304,9 @@ AlignmentResult FineAligner::estimate(const AlignmentReference& reference,
   } else if (out.inlier_fraction < params_.min_inlier_fraction) {
     why << "inlier fraction " << out.inlier_fraction << " below min_inlier_fraction "
         << params_.min_inlier_fraction;
+  } else if (out.cost_reduction < params_.min_cost_reduction) {
+    why << "the correction lowers the cost by " << out.cost_reduction
+        << ", below min_cost_reduction " << params_.min_cost_reduction;
   }
   if (!why.str().empty()) return finish(why.str());
   out.applied = true;

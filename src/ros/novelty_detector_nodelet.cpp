@@ -366,7 +366,9 @@ void NoveltyDetectorNodelet::processSweep(const sensor_msgs::PointCloud2::ConstP
       alignment << std::setprecision(3) << ", " << result.alignment.translation_m * 100.0 << " cm, "
                 << result.alignment.rotation_deg << " deg, fitness "
                 << result.alignment.fitness_m * 1000.0 << " mm, inliers "
-                << result.alignment.inlier_fraction << ", " << result.alignment.ms << " ms";
+                << result.alignment.inlier_fraction << ", cost -"
+                << result.alignment.cost_reduction * 100.0 << " %, " << result.alignment.ms
+                << " ms";
     }
     for (const std::string& w : result.warnings)
       NODELET_WARN_THROTTLE(kWarnPeriodS, "sweep at %.3f: %s", header.stamp.toSec(), w.c_str());

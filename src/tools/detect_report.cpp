@@ -118,6 +118,7 @@ json reportJson(const nd::Result& r, const nd::Pipeline& pipeline, double refere
                           {"rotation_deg", a.rotation_deg},
                           {"fitness_m", a.fitness_m},
                           {"inlier_fraction", a.inlier_fraction},
+                          {"cost_reduction", a.cost_reduction},
                           {"samples", a.samples},
                           {"iterations", a.iterations},
                           {"degenerate_directions", a.degenerate_directions},

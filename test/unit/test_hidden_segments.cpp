@@ -459,6 +459,7 @@ TEST(HiddenSegments, WallRevealedUnderALocalisationErrorIsNotNovel) {
     ASSERT_EQ(sim::sceneGroup(s.config), "localisation_error");
     Params params;
     params.superquadric.enabled = false;
+    params.alignment.enabled = false;  // the rule itself, on the sweep as registered
     Params without = params;
     without.segmentation.hidden.parallel_factor = 0.0;
     Pipeline a(params), b(without);
