@@ -58,23 +58,16 @@ Points nearInSensorFrame(const Cloud& cloud, const Indices& distinct, double min
 }
 
 /// Marks the finite points of `cloud` closer than min_range to its sensor or inside `body`
-/// (sensor frame), as nearInSensorFrame() does, into `mask` (one flag per point), and counts
-/// them.
+/// (nearInSensorFrame()'s marks, every point tested on its own: a repeat of a position gets
+/// its first occurrence's mark anyway), and counts them.
 void markNearOrInBody(const Cloud& cloud, double min_range, const Eigen::AlignedBox3f& body,
                       std::vector<std::uint8_t>* mask, std::size_t* count) {
   mask->assign(cloud.size(), 0);
   *count = 0;
-  if (!(min_range > 0.0) && body.isEmpty()) return;
-  const Eigen::Vector3f o = cloud.sensor_origin_.head<3>();
-  const Eigen::Matrix3f Rt = cloud.sensor_orientation_.normalized().toRotationMatrix().transpose();
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3f d = cloud[i].getVector3fMap() - o;
-    if (!d.allFinite()) continue;
-    if (d.norm() < min_range || (!body.isEmpty() && body.contains(Rt * d))) {
-      (*mask)[i] = 1;
-      ++*count;
-    }
-  }
+  if (!(min_range > 0.0) && body.isEmpty()) return;  // nothing can be marked
+  std::vector<int> unused;
+  nearInSensorFrame(cloud, finiteIndices(cloud), min_range, 0.0, body, &unused, mask);
+  for (const std::uint8_t m : *mask) *count += m;
 }
 
 /// The points of `cloud` at `indices` (map frame).
@@ -259,8 +252,7 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
       max_range * headingChange(reference.sensor_orientation_, current.sensor_orientation_);
   s.sought = moved >= novelty_distance_m && max_range > 0.0;
   if (!s.sought) {
-    // Only min_range_m and body_box: a test of each point on its own (a repeat of a position
-    // gets its first occurrence's mark anyway).
+    // Only min_range_m and body_box, without indexing either cloud's distinct points.
     markNearOrInBody(reference, params.min_range_m, body, &s.reference, &s.reference_count);
     markNearOrInBody(current, params.min_range_m, body, &s.current, &s.current_count);
     return s;
