@@ -25,6 +25,44 @@ bool surfacePatch(double width_m, double thickness_m, double tau) {
   return width_m > tau && !(thickness_m > tau);
 }
 
+// The plane of a segment's surface (test 2): the plane of all its points when they are no
+// thicker than tau (`on`: all of them); else refitted kSurfaceRounds times to the
+// kSurfaceTrim share of them nearest the last plane, its points those within
+// kSurfaceBand * tau of it (`on`, ascending), its spreads theirs. A few stray points linked
+// across a gap between tilt lines (far wall returns above a leaf) then neither tilt the plane
+// nor thicken it.
+Plane surfacePlane(const Cloud& cloud, const Indices& points, double tau, Indices* on) {
+  Plane plane = fitPlane(cloud, points);
+  if (!(plane.sd(0) > tau)) {  // thin as a whole: all of it is the surface
+    *on = points;
+    return plane;
+  }
+  std::vector<std::pair<double, int>> off(points.size());
+  const auto measure = [&] {
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const Eigen::Vector3d p = cloud[points[k]].getVector3fMap().cast<double>();
+      off[k] = {std::abs(plane.normal.dot(p - plane.centroid)), points[k]};
+    }
+  };
+  const std::size_t keep =
+      std::max<std::size_t>(3, static_cast<std::size_t>(kSurfaceTrim * points.size()));
+  Indices near;
+  for (int round = 0; round < kSurfaceRounds && keep < points.size(); ++round) {
+    measure();
+    std::nth_element(off.begin(), off.begin() + (keep - 1), off.end());
+    near.clear();
+    for (std::size_t k = 0; k < keep; ++k) near.push_back(off[k].second);
+    plane = fitPlane(cloud, near);
+  }
+  measure();
+  on->clear();
+  for (const auto& [d, i] : off)
+    if (d <= kSurfaceBand * tau) on->push_back(i);
+  std::sort(on->begin(), on->end());
+  if (on->size() >= 3) plane = fitPlane(cloud, *on);
+  return plane;
+}
+
 // Test 3's verdict: structure around, and enough of it on the segment's plane.
 bool continuesMap(const HiddenSegmentEvidence& e, const SegmentationParams& params) {
   return e.ring > 0 && e.ring_coplanar >= params.hidden.max_coplanar * e.ring;
@@ -194,26 +232,30 @@ std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image) {
 
 HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
                                            const std::vector<Visibility>& vis,
-                                           const SegmentationParams& params) {
+                                           const SegmentationParams& params, Indices* on_surface) {
   HiddenSegmentEvidence e;
   e.points = static_cast<int>(segment.size());
   for (Visibility v : vis) e.occluded += v == Visibility::kOccluded;
   if (segment.size() < 3 || !ctx.current) return e;
-  const Plane plane = fitPlane(*ctx.current, segment);
+  Indices own;
+  Indices& surface = on_surface ? *on_surface : own;
+  const Plane plane = surfacePlane(*ctx.current, segment, ctx.tau, &surface);
+  e.surface = static_cast<int>(surface.size());
   e.width_m = plane.sd(1);
   e.thickness_m = plane.sd(0);
-  if (ctx.structure) measureRing(ctx, segment, plane, params, &e);
+  if (ctx.structure) measureRing(ctx, surface, plane, params, &e);
   if (ctx.current_image && !ctx.current_image->empty())
-    measureOutline(ctx, segment, plane, params, &e);
+    measureOutline(ctx, surface, plane, params, &e);
   return e;
 }
 
 bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
                           const SegmentationParams& params) {
-  if (2 * e.occluded < e.points) return false;                     // 1
-  if (!surfacePatch(e.width_m, e.thickness_m, tau)) return false;  // 2
-  if (e.ring == 0 || continuesMap(e, params)) return false;        // 3
-  const int outline = e.past + e.on;                               // 4
+  if (2 * e.occluded < e.points) return false;  // 1
+  if (e.surface < kMinSurfaceShare * e.points || !surfacePatch(e.width_m, e.thickness_m, tau))
+    return false;                                            // 2
+  if (e.ring == 0 || continuesMap(e, params)) return false;  // 3
+  const int outline = e.past + e.on;                         // 4
   return outline > 0 && e.past >= params.hidden.min_free_edge * outline;
 }
 
@@ -246,8 +288,10 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
     vis.reserve(seg.size());
     for (int i : seg)
       vis.push_back(hidden_vis[std::lower_bound(hidden.begin(), hidden.end(), i) - hidden.begin()]);
-    const HiddenSegmentEvidence e = measureHiddenSegment(ctx, seg, vis, params.segmentation);
-    if (hiddenSegmentIsNovel(e, tau, params.segmentation)) out.push_back(seg);
+    Indices surface;
+    const HiddenSegmentEvidence e =
+        measureHiddenSegment(ctx, seg, vis, params.segmentation, &surface);
+    if (hiddenSegmentIsNovel(e, tau, params.segmentation)) out.push_back(surface);
   }
   return out;
 }
@@ -255,10 +299,13 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
                      const SegmentationParams& params) {
   if (points.size() < 3 || !ctx.current || !ctx.structure) return false;
-  const Plane plane = fitPlane(*ctx.current, points);
-  if (!surfacePatch(plane.sd(1), plane.sd(0), ctx.tau)) return false;
+  Indices surface;
+  const Plane plane = surfacePlane(*ctx.current, points, ctx.tau, &surface);
+  if (surface.size() < kMinSurfaceShare * points.size() ||
+      !surfacePatch(plane.sd(1), plane.sd(0), ctx.tau))
+    return false;
   HiddenSegmentEvidence e;
-  measureRing(ctx, points, plane, params, &e);
+  measureRing(ctx, surface, plane, params, &e);
   return continuesMap(e, params);
 }
 

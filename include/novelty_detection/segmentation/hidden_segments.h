@@ -9,7 +9,12 @@
 //    or about there: nothing is known of what it never looked at);
 // 2. it is a surface patch: its second principal spread exceeds tau, so it has a plane
 //    (normal = least principal axis), and its thickness across that plane (least principal
-//    spread) is at most tau (noise-sized);
+//    spread) is at most tau (noise-sized); when its points as a whole are thicker, on its
+//    surface: the points near the plane that most of them fit (kSurfaceTrim and below), at
+//    least kMinSurfaceShare of them. A few
+//    returns linked to a far leaf across a gap between tilt lines are not part of it; two
+//    surfaces at an angle or a blob are no patch. Tests 3 and 4 measure the surface, and a
+//    novel segment is its surface;
 // 3. it is not a continuation of mapped structure: of the reference points (no ground, not
 //    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
 //    that radius), at least one exists and fewer than
@@ -45,6 +50,7 @@ namespace novelty_detection {
 /// The measurements behind the rule, for one segment.
 struct HiddenSegmentEvidence {
   int points = 0;
+  int surface = 0;           ///< of those, on its surface's plane (test 2)
   int occluded = 0;          ///< points the reference saw something in front of
   double width_m = 0.0;      ///< second principal standard deviation
   double thickness_m = 0.0;  ///< least principal standard deviation (across the plane)
@@ -54,6 +60,18 @@ struct HiddenSegmentEvidence {
   int past = 0;              ///< outline rays of the current sweep that reach past its plane
   int on = 0;                ///< outline rays that end on its plane
 };
+
+/// Test 2's surface, for a segment whose points as a whole lie thicker than tau about their
+/// plane: the plane of the kSurfaceTrim share of its points nearest it (refitted
+/// kSurfaceRounds times from the plane of all of them); the points within kSurfaceBand * tau
+/// of it are the surface, and at least kMinSurfaceShare of the segment's points must be. Tests 2-4
+/// measure the surface, and a novel segment is its surface: a few returns of a far wall linked to a
+/// leaf across the gap between two tilt lines (the link radius grows with range) are not part of
+/// it.
+constexpr double kSurfaceTrim = 0.8;
+constexpr int kSurfaceRounds = 2;
+constexpr double kSurfaceBand = 2.0;
+constexpr double kMinSurfaceShare = 0.8;
 
 /// Test 3's local surface of a structure point: the structure within kLocalPlaneFactor * tau,
 /// at least kMinLocalPoints points, a plane (least principal spread below kMaxLocalFlatness
@@ -95,7 +113,8 @@ struct HiddenSegmentContext {
 /// segment[k]).
 HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, const Indices& segment,
                                            const std::vector<Visibility>& vis,
-                                           const SegmentationParams& params);
+                                           const SegmentationParams& params,
+                                           Indices* on_surface = nullptr);
 
 /// The rule of the header comment on measured evidence.
 bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
