@@ -49,6 +49,7 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   buildCurrentView(d);
   findDisappearedStructure(d);
   addHiddenNovelties(d);
+  addFreeContinuations(d);
   completeNewObjects(d);
   labelSegments(d);
   markNewlyVisible(d);

@@ -295,6 +295,7 @@ struct SegmentationParams {
   double map_likelihood_quantile = 0.0;
   bool visibility_check = true;
   bool sparse_groups = true;
+  bool free_continuations = true;
   HiddenParams hidden;
 
   template <class F>
@@ -358,6 +359,12 @@ struct SegmentationParams {
        "touching a segment joins it, one of at least min_segment_points points spreading in "
        "two directions is a segment of its own (segmentation/sparse_groups.h; needs both "
        "sensor origins)"});
+    f("free_continuations", free_continuations,
+      {"points the novel Gaussians' posterior turned down that lie farther than tau from the "
+       "map, in space the reference saw as free, join the segment they are linked to (within "
+       "the link radius, through each other; at most as many as the segment has): the part "
+       "of a new object that a Gaussian shared with the structure it touches holds "
+       "(segmentation/free_continuations.h; needs the reference's sensor origin)"});
     hidden.visit(f);
   }
   void validate() const;

@@ -70,6 +70,7 @@ void addSparseGroups(Detection& d);
 void buildCurrentView(Detection& d);
 void findDisappearedStructure(Detection& d);
 void addHiddenNovelties(Detection& d);
+void addFreeContinuations(Detection& d);
 void completeNewObjects(Detection& d);
 void labelSegments(Detection& d);
 void markNewlyVisible(Detection& d);

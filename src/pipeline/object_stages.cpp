@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/parallel.h"
+#include "novelty_detection/segmentation/free_continuations.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/object_completion.h"
 #include "novelty_detection/segmentation/surface_creases.h"
@@ -76,6 +77,28 @@ void addHiddenNovelties(Detection& d) {
   }
   for (std::size_t k = 0; k < cand.hidden.size(); ++k)
     d.owner_of[cand.hidden[k]] = cand.hidden_owner[k];
+}
+
+/// Continuations into free space (segmentation/free_continuations.h): points the posterior
+/// turned down that lie farther than tau from the map, in space the reference saw through,
+/// join the segment they are linked to. Needs the reference's visibility.
+void addFreeContinuations(Detection& d) {
+  const SegmentationParams& sp = d.params.segmentation;
+  if (!sp.free_continuations || !sp.visibility_check || d.ref.visibility.empty() ||
+      d.pieces.empty())
+    return;
+  const Cloud& current = *d.current;
+  const double margin = d.params.visibility.margin_factor * d.tau;
+  const auto changed = [&](int i) {
+    const Eigen::Vector3f p = current[i].getVector3fMap();
+    return !d.ref.points.within(p, d.tau) &&
+           d.ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell) ==
+               Visibility::kFree;
+  };
+  const std::size_t added = growIntoFreeSpace(current, d.s.pre.kept, d.kept_index, &d.pieces,
+                                              d.link_radius, kFreeMaxGrowth, changed);
+  d.result.point_counts.emplace_back("free_continuation_points", added);
+  d.timer.lap("free_continuations");
 }
 
 /// Object completion (object_completion.h) once every rule has added its novel points:
