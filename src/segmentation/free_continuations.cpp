@@ -5,6 +5,11 @@
 #include <cmath>
 #include <cstdint>
 #include <deque>
+#include <utility>
+
+#include <Eigen/Geometry>
+
+#include "novelty_detection/point_grid.h"
 
 namespace novelty_detection {
 
@@ -22,22 +27,60 @@ std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
       const auto it = std::lower_bound(kept.begin(), kept.end(), i);
       if (it != kept.end() && *it == i) state[static_cast<std::size_t>(it - kept.begin())] = 1;
     }
+  // The points in no segment within the link radius of a segment's box: the only ones a
+  // segment's own points link to, in a hash grid (most of a large segment's points have none
+  // about them). The points a segment gains are searched in the index: their links may leave
+  // the boxes. Both keep the index's test (squared float distance below the radius's), so
+  // either search finds the same points.
+  const float r2 = static_cast<float>(link_radius_m * link_radius_m);
+  const auto pad = Eigen::Vector3f::Constant(static_cast<float>(link_radius_m));
+  std::vector<Eigen::AlignedBox3f> boxes;
+  for (const Indices& s : *segments) {
+    Eigen::AlignedBox3f box;
+    for (int i : s) box.extend(cloud[i].getVector3fMap());
+    if (!box.isEmpty()) boxes.emplace_back(box.min() - pad, box.max() + pad);
+  }
+  std::vector<int> near_ids;  // kept positions
+  Points3d near_points;
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    if (state[k] != 0) continue;
+    const Eigen::Vector3f p = cloud[kept[k]].getVector3fMap();
+    for (const Eigen::AlignedBox3f& box : boxes)
+      if (box.contains(p)) {
+        near_ids.push_back(static_cast<int>(k));
+        near_points.push_back(p.cast<double>());
+        break;
+      }
+  }
+  if (near_ids.empty()) return 0;
+  const double reach = link_radius_m * (1.0 + 1e-6);  // a superset of the float test's points
+  const PointGrid grid(near_points, reach);
   std::size_t total = 0;
   std::vector<int> ids;
   std::vector<std::pair<float, int>> near;
+  const auto consider = [&](int id, const Eigen::Vector3f& p) {
+    if (state[static_cast<std::size_t>(id)] != 0) return;
+    const float d2 = (kept_index.point(id) - p).squaredNorm();
+    if (d2 < r2) near.emplace_back(d2, id);
+  };
   for (Indices& seg : *segments) {
     const std::size_t cap = static_cast<std::size_t>(max_growth * static_cast<double>(seg.size()));
     std::deque<int> frontier(seg.begin(), seg.end());  // input indices
+    std::size_t own = seg.size();                      // the first `own` are the segment's
     Indices added;
     while (!frontier.empty() && added.size() < cap) {
       const Eigen::Vector3f p = cloud[frontier.front()].getVector3fMap();
       frontier.pop_front();
-      ids.clear();
-      kept_index.withinIds(p, link_radius_m, &ids);
       near.clear();
-      for (int id : ids)
-        if (state[static_cast<std::size_t>(id)] == 0)
-          near.emplace_back((kept_index.point(id) - p).squaredNorm(), id);
+      if (own > 0) {
+        --own;
+        grid.forNeighbours(p.cast<double>(), reach,
+                           [&](int j) { consider(near_ids[static_cast<std::size_t>(j)], p); });
+      } else {
+        ids.clear();
+        kept_index.withinIds(p, link_radius_m, &ids);
+        for (int id : ids) consider(id, p);
+      }
       std::sort(near.begin(), near.end());
       for (const auto& [d2, id] : near) {
         if (added.size() >= cap) break;
