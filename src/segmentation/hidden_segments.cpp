@@ -19,10 +19,11 @@ namespace {
 using detail::fitPlane;
 using detail::Plane;
 
-// Test 2 on a plane fit's spreads: a surface patch, with a plane (width above tau) and
-// noise-sized thickness.
-bool surfacePatch(double width_m, double thickness_m, double tau) {
-  return width_m > tau && !(thickness_m > tau);
+// Test 2 on the surface of `points` points (surfacePlane below: `surface` of them on it, its
+// plane's spreads): most of them on it, a plane (width above tau) and noise-sized thickness.
+bool surfacePatch(std::size_t points, std::size_t surface, double width_m, double thickness_m,
+                  double tau) {
+  return surface >= kMinSurfaceShare * points && width_m > tau && !(thickness_m > tau);
 }
 
 // The plane of a segment's surface (test 2): the plane of all its points when they are no
@@ -251,11 +252,10 @@ HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, cons
 
 bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
                           const SegmentationParams& params) {
-  if (2 * e.occluded < e.points) return false;  // 1
-  if (e.surface < kMinSurfaceShare * e.points || !surfacePatch(e.width_m, e.thickness_m, tau))
-    return false;                                            // 2
-  if (e.ring == 0 || continuesMap(e, params)) return false;  // 3
-  const int outline = e.past + e.on;                         // 4
+  if (2 * e.occluded < e.points) return false;                                          // 1
+  if (!surfacePatch(e.points, e.surface, e.width_m, e.thickness_m, tau)) return false;  // 2
+  if (e.ring == 0 || continuesMap(e, params)) return false;                             // 3
+  const int outline = e.past + e.on;                                                    // 4
   return outline > 0 && e.past >= params.hidden.min_free_edge * outline;
 }
 
@@ -301,9 +301,7 @@ bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
   if (points.size() < 3 || !ctx.current || !ctx.structure) return false;
   Indices surface;
   const Plane plane = surfacePlane(*ctx.current, points, ctx.tau, &surface);
-  if (surface.size() < kMinSurfaceShare * points.size() ||
-      !surfacePatch(plane.sd(1), plane.sd(0), ctx.tau))
-    return false;
+  if (!surfacePatch(points.size(), surface.size(), plane.sd(1), plane.sd(0), ctx.tau)) return false;
   HiddenSegmentEvidence e;
   measureRing(ctx, surface, plane, params, &e);
   return continuesMap(e, params);

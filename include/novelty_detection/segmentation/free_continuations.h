@@ -8,10 +8,10 @@
 // distance and visibility rules without the posterior's. The rule: such points (`changed`)
 // that are in no segment join the segment they are linked to (closer than the link radius,
 // directly or through each other), breadth first from the segment's points, nearest links
-// first, at most `max_growth` (kFreeMaxGrowth) times the segment's own points (the segment is the
-// evidence for its continuation; a wall shifted by a pose error is no part of an object standing
-// beside it). Points in no segment's reach stay as they are: without a selected Gaussian
-// the rule makes no segment.
+// first, at most `max_growth` (kFreeMaxGrowth) times the segment's own points (the segment
+// is the evidence for its continuation; a wall shifted by a pose error is no part of an
+// object standing beside it). Points in no segment's reach stay as they are: without a
+// selected Gaussian the rule makes no segment.
 #pragma once
 
 #include <functional>

@@ -11,10 +11,9 @@
 //    (normal = least principal axis), and its thickness across that plane (least principal
 //    spread) is at most tau (noise-sized); when its points as a whole are thicker, on its
 //    surface: the points near the plane that most of them fit (kSurfaceTrim and below), at
-//    least kMinSurfaceShare of them. A few
-//    returns linked to a far leaf across a gap between tilt lines are not part of it; two
-//    surfaces at an angle or a blob are no patch. Tests 3 and 4 measure the surface, and a
-//    novel segment is its surface;
+//    least kMinSurfaceShare of them. A few returns linked to a far leaf across a gap between
+//    tilt lines are not part of it; two surfaces at an angle or a blob are no patch. Tests 3
+//    and 4 measure the surface, and a novel segment is its surface;
 // 3. it is not a continuation of mapped structure: of the reference points (no ground, not
 //    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
 //    that radius), at least one exists and fewer than
@@ -64,10 +63,10 @@ struct HiddenSegmentEvidence {
 /// Test 2's surface, for a segment whose points as a whole lie thicker than tau about their
 /// plane: the plane of the kSurfaceTrim share of its points nearest it (refitted
 /// kSurfaceRounds times from the plane of all of them); the points within kSurfaceBand * tau
-/// of it are the surface, and at least kMinSurfaceShare of the segment's points must be. Tests 2-4
-/// measure the surface, and a novel segment is its surface: a few returns of a far wall linked to a
-/// leaf across the gap between two tilt lines (the link radius grows with range) are not part of
-/// it.
+/// of it are the surface, and at least kMinSurfaceShare of the segment's points must be.
+/// Tests 2-4 measure the surface, and a novel segment is its surface: a few returns of a far
+/// wall linked to a leaf across the gap between two tilt lines (the link radius grows with
+/// range) are not part of it.
 constexpr double kSurfaceTrim = 0.8;
 constexpr int kSurfaceRounds = 2;
 constexpr double kSurfaceBand = 2.0;
