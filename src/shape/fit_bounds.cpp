@@ -1,6 +1,7 @@
 #include "novelty_detection/shape/fit_bounds.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -25,6 +26,8 @@ constexpr double kCornerExponent = 0.1;
 constexpr double kEndBand = 0.02;
 // Steps of the search for the first free space above a fit's top [m] (at least).
 constexpr double kGapStepM = 0.01;
+// Steps of the search for free space beneath a segment's lowest points [m] (at least).
+constexpr double kRestStepM = 0.02;
 }  // namespace
 
 bool FitBounds::standsOnFloor(const Points3d& points) const {
@@ -35,7 +38,45 @@ bool FitBounds::standsOnFloor(const Points3d& points) const {
     lo = std::min(lo, h);
     hi = std::max(hi, h);
   }
-  return lo <= floor_band_m + params.support_fraction * (hi - lo);
+  if (lo <= floor_band_m + params.support_fraction * (hi - lo)) return true;
+  return rests_on_floor && lo <= lowest_height_m + std::max(floor_band_m, margin_m);
+}
+
+bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
+                  const FitBounds& bounds) {
+  if (!bounds.has_floor || !bounds.view || segment.empty() || floor_points.empty()) return false;
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (const auto& p : segment) {
+    low = std::min(low, bounds.heightAboveFloor(p));
+    high = std::max(high, bounds.heightAboveFloor(p));
+  }
+  const double band_top = low + std::max(2.0 * spacing, kRestBand * (high - low));
+  Points3d bottom;
+  for (const auto& p : segment)
+    if (bounds.heightAboveFloor(p) <= band_top) bottom.push_back(p);
+  bottom = subsample(bottom, kRestColumns);
+  const double step = std::max(bounds.margin_m, kRestStepM);
+  const double reach = std::max(bounds.margin_m, 2.0 * spacing);
+  int seen_beneath = 0, floor_at_foot = 0;
+  for (const auto& p : bottom) {
+    const double h = bounds.heightAboveFloor(p);
+    for (double d = step; h - d > bounds.floor_band_m; d += step) {
+      if (bounds.view->classify((p - d * bounds.up).cast<float>(), bounds.margin_m) ==
+          Visibility::kFree) {
+        ++seen_beneath;
+        break;
+      }
+    }
+    for (const auto& f : floor_points) {
+      const Eigen::Vector3d d = f - p;
+      if ((d - d.dot(bounds.up) * bounds.up).norm() <= reach) {
+        ++floor_at_foot;
+        break;
+      }
+    }
+  }
+  const double n = static_cast<double>(bottom.size());
+  return seen_beneath <= kMaxSeenBeneath * n && floor_at_foot >= kMinFloorAtFoot * n;
 }
 
 double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u) {
@@ -78,7 +119,7 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   const double spacing = medianSpacing(segment);
   // Sweep points nearer than this to the segment may be its own (missed by segmentation).
   const double own = std::max(source.margin_m, 2.0 * spacing);
-  Points3d outside;
+  Points3d outside, floor_points;
 
   // Space the sweep saw through, sampled on a grid over the box.
   if (source.view && !source.view->empty()) {
@@ -105,16 +146,81 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
       const Eigen::Vector3d p = sweep[i].getVector3fMap().cast<double>();
       if (!p.allFinite() || (p.array() < lo.array()).any() || (p.array() > hi.array()).any())
         continue;
+      if (bounds.has_floor && bounds.heightAboveFloor(p) <= bounds.floor_band_m + source.margin_m)
+        floor_points.push_back(p);
       if (grid && grid->nearest(p) >= 0) continue;
       outside.push_back(p);
     }
   }
   bounds.outside = subsample(outside, params.bound_points);
+  if (restsOnFloor(segment, floor_points, spacing, bounds)) {
+    bounds.rests_on_floor = true;
+    bounds.lowest_height_m = std::numeric_limits<double>::infinity();
+    for (const auto& p : segment)
+      bounds.lowest_height_m = std::min(bounds.lowest_height_m, bounds.heightAboveFloor(p));
+  }
   return bounds;
 }
 
+bool sectionCirclesCentre(const Points3d& points, const Eigen::Vector3d& up,
+                          const Eigen::Vector3d& start, Eigen::Vector3d* centre) {
+  if (points.size() < 3) return false;
+  // Floor-plan coordinates (x, y) and the height band of each point.
+  const Eigen::Vector3d ex = up.unitOrthogonal(), ey = up.cross(ex);
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
+  for (const auto& p : points) {
+    z_lo = std::min(z_lo, up.dot(p));
+    z_hi = std::max(z_hi, up.dot(p));
+  }
+  const double band_height = std::max(1e-9, (z_hi - z_lo) / kSectionBands);
+  std::vector<int> band(points.size());
+  std::vector<Eigen::Vector2d> xy(points.size());
+  std::array<double, kSectionBands> count{};
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    band[i] =
+        std::min(kSectionBands - 1, static_cast<int>((up.dot(points[i]) - z_lo) / band_height));
+    xy[i] = Eigen::Vector2d(ex.dot(points[i]), ey.dot(points[i]));
+    count[static_cast<std::size_t>(band[i])] += 1.0;
+  }
+  Eigen::Vector2d c(ex.dot(start), ey.dot(start));
+  constexpr int kIterations = 20;
+  for (int it = 0; it < kIterations; ++it) {
+    // Residual d_i - mean of its band, whose derivative is the unit direction's deviation
+    // from its band's mean: the radii are eliminated.
+    std::vector<Eigen::Vector2d> dir(points.size());
+    std::vector<double> dist(points.size());
+    std::array<Eigen::Vector2d, kSectionBands> dir_mean;
+    std::array<double, kSectionBands> dist_mean{};
+    for (auto& m : dir_mean) m.setZero();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector2d d = xy[i] - c;
+      dist[i] = d.norm();
+      dir[i] = dist[i] > 1e-12 ? Eigen::Vector2d(d / dist[i]) : Eigen::Vector2d::Zero();
+      const auto b = static_cast<std::size_t>(band[i]);
+      dir_mean[b] += dir[i] / count[b];
+      dist_mean[b] += dist[i] / count[b];
+    }
+    Eigen::Matrix2d jtj = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d jtr = Eigen::Vector2d::Zero();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const auto b = static_cast<std::size_t>(band[i]);
+      if (count[b] < 3.0) continue;  // a band of one or two points fixes no circle
+      const Eigen::Vector2d j = -(dir[i] - dir_mean[b]);
+      jtj += j * j.transpose();
+      jtr += j * (dist[i] - dist_mean[b]);
+    }
+    if (jtj.determinant() <= 1e-12 * (jtj.trace() * jtj.trace() + 1e-30)) return false;
+    const Eigen::Vector2d step = jtj.ldlt().solve(-jtr);
+    if (!step.allFinite()) return false;
+    c += step;
+    if (step.norm() < 1e-6) break;
+  }
+  *centre = c.x() * ex + c.y() * ey;
+  return c.allFinite();
+}
+
 Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness,
-                            bool standing_part) {
+                            bool standing_part, bool round_section) {
   if (!bounds.view || bounds.params.mirror_max_free <= 0.0 || points.size() < 11 ||
       !(standing_part ? bounds.has_floor : bounds.standsOnFloor(points)))
     return {};
@@ -152,8 +258,17 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
   // A round silhouette's ends are tangent points, in front of the centre by r^2 / D, and
   // the band's median lies in front of them by about r sqrt(2 f - f^2) (f: the band's
   // share of the width); a box's ends are its corners, level with the centre.
-  if (roundness > 0.0) {
-    const double r = 0.5 * (u_hi - u_lo);
+  // A round section's centre from its curvature, where it lies plausibly behind the middle
+  // (a flat view has no curvature to go by: a leaf maps onto itself).
+  round_section = round_section && !isFlatView(principalFrame(points), bounds.noise_m);
+  Eigen::Vector3d circles;
+  const double width = u_hi - u_lo;
+  if (round_section && sectionCirclesCentre(points, bounds.up, centre, &circles) &&
+      v.dot(circles) > v.dot(centre) && v.dot(circles) - v.dot(centre) <= kMaxCentreDepth * width) {
+    centre = circles;
+  } else if (round_section || roundness > 0.0) {
+    roundness = round_section ? 1.0 : roundness;
+    const double r = 0.5 * width;
     Eigen::Vector3d to_centre = centre - viewpoint;
     to_centre -= to_centre.dot(bounds.up) * bounds.up;  // horizontal
     const double distance = std::max(to_centre.norm(), r);

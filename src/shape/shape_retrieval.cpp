@@ -73,9 +73,10 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   // the silhouette), so that the refinement does not stay in the hidden space the unbounded
   // fit reached into.
   const auto with_hidden_side = [&](const Points3d& seen, double roundness, Superquadric* model,
-                                    bool standing_part = false) {
+                                    bool standing_part = false, bool round_section = false) {
     if (!bounds) return seen;
-    const Points3d mirrored = mirroredHiddenSide(seen, *bounds, roundness, standing_part);
+    const Points3d mirrored =
+        mirroredHiddenSide(seen, *bounds, roundness, standing_part, round_section);
     if (mirrored.empty()) return seen;
     Points3d both = seen;
     both.insert(both.end(), mirrored.begin(), mirrored.end());
@@ -134,9 +135,9 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   });
   FitResult best = fits[0];
   if (coarse_usable && fits[1].mean_radial_distance < best.mean_radial_distance) best = fits[1];
-  if (!standing && round_check &&
-      round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub)))
-    best = ellipsoid;
+  const bool round_section = !standing && round_check &&
+                             round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub));
+  if (round_section) best = ellipsoid;
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
   SplitMerge split_merge(params_);
@@ -146,8 +147,10 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   if (!standing) parts = split_merge.run(sm_points, &best);
   if (parts.size() == 1) {
     if (bounds && !bounds->empty()) {
+      // The ellipsoid kept: its section is round, and its centre is found from its
+      // curvature (fit_bounds.h).
       Superquadric model = best.sq;
-      const Points3d seen = with_hidden_side(sub, 0.0, &model);
+      const Points3d seen = with_hidden_side(sub, 0.0, &model, false, round_section);
       best = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
       // A round section's silhouette ends lie in front of its centre: mirror again knowing
       // how round the first fit came out.

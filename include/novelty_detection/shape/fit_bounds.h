@@ -12,12 +12,22 @@
 //    weigh at least as much as the object's points. Space hidden behind the object's visible
 //    surface carries no outside point, so the fit may extend there.
 //  - Support. An object whose points come down to the floor (their lowest within the floor's
-//    band plus support_fraction of their own height) stands on it: the fit's lowest extent
+//    band plus support_fraction of their own height), or whose lowest scan line is the floor
+//    at its foot (below), stands on it: the fit's lowest extent
 //    along up, the superquadric's support function, is drawn onto the floor plane by one
 //    residual that weighs like all the points moved by the same distance; and it stands
 //    upright: the fit keeps the axis nearest to up along it and turns only about up (the
 //    objects a patrol robot meets, boxes, bins, people, doors, stand upright; a one-sided
 //    view otherwise lets a box tilt to follow the noise).
+//
+//  - Resting on the floor. A tilting laser's lines lie 20-35 cm apart on an object 5-7 m
+//    away, and ground removal takes the returns within the floor's band: the lowest points
+//    left of a box standing there may be a line or two above the floor. Such an object rests
+//    on the floor when the sweep saw no free space beneath its lowest points (not seen
+//    through below it: no table's legs, no gap under a shelf) and, at the foot of most of
+//    them, returns on the floor itself (what the lowest line hit next). An object whose
+//    lower part is hidden behind another one has no floor observed at its foot: nothing
+//    says it comes down, and it is fitted to what was seen.
 //
 // The support function of the superquadric F = ((x/a1)^(2/e2) + (y/a2)^(2/e2))^(e2/e1) +
 // (z/a3)^(2/e1) = 1 in a unit direction v of its frame is the dual of its nested norm:
@@ -59,11 +69,19 @@ struct FitBounds {
   /// range [m]; 0: unknown.
   double noise_m = 0.0;
 
+  /// The segment rests on the floor although its lowest points lie above the band (header
+  /// comment), and their height above the floor [m]: a point set whose lowest is within
+  /// the band or the margin of that height (the segment, or the part that holds its
+  /// bottom) stands on the floor.
+  bool rests_on_floor = false;
+  double lowest_height_m = 0.0;
+
   bool empty() const { return outside.empty() && !has_floor; }
   /// Height of p above the floor [m].
   double heightAboveFloor(const Eigen::Vector3d& p) const { return up.dot(p) + floor_offset; }
   /// Whether `points` stand on the floor: their lowest lies within floor_band_m +
-  /// support_fraction * their extent along up above it.
+  /// support_fraction * their extent along up above it, or they hold the bottom of a segment
+  /// that rests on the floor.
   bool standsOnFloor(const Points3d& points) const;
 };
 
@@ -102,9 +120,25 @@ struct FitBoundsSource {
 /// free_space_* settings: outside points within an inflated box about the segment (free
 /// samples on a grid, and sweep points of other segments or of none that lie farther than
 /// the margin and twice the segment's point spacing from its points), evenly thinned to at
-/// most bound_points; the floor when the source has one. Empty when bounds are disabled.
+/// most bound_points; the floor when the source has one, and whether the segment rests on
+/// it (restsOnFloor()). Empty when bounds are disabled.
 FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsSource& source,
                        const SuperquadricParams& params);
+
+/// Whether a segment whose lowest points lie above the floor's band rests on the floor
+/// (header comment): of its lowest points (within kRestBand of its height, or twice its
+/// point spacing, above its lowest; at most kRestColumns of them), at most kMaxSeenBeneath
+/// have space the sweep saw through (`bounds.view`, margin `bounds.margin_m`) straight below
+/// them, sampled every margin (at least 2 cm) down to the band, and at least kMinFloorAtFoot
+/// have a point of `floor_points` (sweep returns within the band plus the margin of the
+/// floor) within the margin or twice the point spacing of them on the floor plan. False
+/// without a floor or a view.
+bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
+                  const FitBounds& bounds);
+constexpr double kRestBand = 0.1;
+constexpr int kRestColumns = 32;
+constexpr double kMaxSeenBeneath = 0.25;
+constexpr double kMinFloorAtFoot = 0.5;
 
 /// The hidden side of a one-sided view by symmetry (as for grasping under incomplete
 /// observation: Bohg et al., ICRA 2011; Quispe et al., ICRA 2015). A superquadric is
@@ -120,8 +154,23 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// in front of it), from a first fit's exponent.
 /// `standing_part`: the points are one part of an object standing on the floor (a person's
 /// trunk or limb, standing_parts.h), mirrored though they do not reach the floor themselves.
+/// `round_section`: the section is known to be round (an ellipsoid fitted the points as
+/// well as free exponents did): a sparse, noisy view rarely holds the tangent points (the
+/// grazing returns at the silhouette are lost), so the centre is that of the circles its
+/// sections lie on (sectionCirclesCentre()) when it lies behind the silhouette's middle by
+/// at most kMaxCentreDepth of its width; else as for roundness 1. Not for a flat view
+/// (isFlatView()).
 Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness = 0.0,
-                            bool standing_part = false);
+                            bool standing_part = false, bool round_section = false);
+constexpr double kMaxCentreDepth = 0.75;
+
+/// The vertical axis the horizontal sections of `points` are circles about, each band of
+/// height its own radius (kSectionBands bands over their height; least squares, Gauss-Newton
+/// from `start` with the radii eliminated), as a point on the floor plan (no component
+/// along `up`); false when degenerate.
+bool sectionCirclesCentre(const Points3d& points, const Eigen::Vector3d& up,
+                          const Eigen::Vector3d& start, Eigen::Vector3d* centre);
+constexpr int kSectionBands = 6;
 
 /// Where a standing, upright fit's surface most likely lies where the sweep did not see it:
 /// the middles of the gaps between the fit's surface and the first space the sweep saw
