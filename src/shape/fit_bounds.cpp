@@ -309,7 +309,7 @@ bool gapMiddle(const RangeImage& view, const Eigen::Vector3d& start, const Eigen
 }
 }  // namespace
 
-Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
+Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds, const Points3d* points) {
   Points3d out;
   if (!bounds.view || !bounds.has_floor) return out;
   const Eigen::Matrix3d r = sq.rotation();
@@ -318,12 +318,20 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
   const Eigen::Vector3d up = r.col(k).dot(bounds.up) > 0.0 ? r.col(k) : Eigen::Vector3d(-r.col(k));
   const int i = (k + 1) % 3, j = (k + 2) % 3;
   Eigen::Vector3d middle;
-  // Up: a 3 x 3 grid of columns over the top face.
+  // Up: a 3 x 3 grid of columns over the top face, from the highest return on the object
+  // where the top lies above it.
+  double top = std::numeric_limits<double>::infinity();
+  if (points && !points->empty()) {
+    top = -top;
+    for (const auto& p : *points) top = std::max(top, up.dot(p));
+  }
   const double up_step = std::max(kGapStepM, sq.a[k] / 50.0);
   for (double oi : {-0.5, 0.0, 0.5}) {
     for (double oj : {-0.5, 0.0, 0.5}) {
-      const Eigen::Vector3d start =
+      Eigen::Vector3d start =
           sq.position + sq.a[k] * up + oi * sq.a[i] * r.col(i) + oj * sq.a[j] * r.col(j);
+      const double above = up.dot(start) - top;
+      if (above > 0.0) start -= above * up;
       if (gapMiddle(*bounds.view, start, up, up_step, 2.0 * sq.a[k], &middle))
         out.push_back(middle);
     }
@@ -334,7 +342,15 @@ Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds) {
     for (double sign : {1.0, -1.0}) {
       const Eigen::Vector3d dir = sign * r.col(m);
       for (double o : {-0.5, 0.0, 0.5}) {
-        const Eigen::Vector3d start = sq.position + sq.a[m] * dir + o * sq.a[k] * up;
+        Eigen::Vector3d start = sq.position + sq.a[m] * dir + o * sq.a[k] * up;
+        if (points) {
+          // The farthest return along dir about this height, if the surface lies beyond it.
+          double reach = -std::numeric_limits<double>::infinity();
+          for (const auto& p : *points)
+            if (std::abs(up.dot(p - start)) <= kGapBand * sq.a[k])
+              reach = std::max(reach, dir.dot(p - sq.position));
+          if (reach > 0.0 && reach < sq.a[m]) start -= (sq.a[m] - reach) * dir;
+        }
         if (gapMiddle(*bounds.view, start, dir, step, sq.a[m], &middle)) out.push_back(middle);
       }
     }

@@ -161,7 +161,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
       // Then once more with the middles of the gaps the sweep left around it, together
       // weighing a quarter of the points.
       const Points3d middles =
-          bounds->standsOnFloor(sub) ? gapMiddles(best.sq, *bounds) : Points3d();
+          bounds->standsOnFloor(sub) ? gapMiddles(best.sq, *bounds, &sub) : Points3d();
       if (!middles.empty()) {
         Points3d with_gaps = data;
         const std::size_t copies = std::max<std::size_t>(1, data.size() / (4 * middles.size()));

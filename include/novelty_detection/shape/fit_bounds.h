@@ -181,7 +181,14 @@ constexpr int kSectionBands = 6;
 /// horizontal axis at three heights, each search up to the fit's own size. A side facing the
 /// sensor meets free space at once (its middle is on the surface) and a hidden side never
 /// (no middle). Empty without a view, a floor or an upright axis.
-Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds);
+/// `points`: the returns on the object. A gap begins at the last of them, not at a fit's
+/// surface that reached beyond it (a refinement towards the middle would otherwise move out
+/// by half a gap each time, tops half a line spacing high at 5-7 m): above the highest
+/// return, and across beyond the farthest return along the search direction within
+/// kGapBand of the fit's half height of the search's height.
+Points3d gapMiddles(const Superquadric& sq, const FitBounds& bounds,
+                    const Points3d* points = nullptr);
+constexpr double kGapBand = 0.25;
 
 /// A flat view: the object's depth across it was not observed. `points` are flat when their
 /// spread across their best plane, less the sensor noise `noise_m`, is at most kFlatRatio of
