@@ -183,12 +183,12 @@ bool sectionCirclesCentre(const Points3d& points, const Eigen::Vector3d& up,
     count[static_cast<std::size_t>(band[i])] += 1.0;
   }
   Eigen::Vector2d c(ex.dot(start), ey.dot(start));
+  std::vector<Eigen::Vector2d> dir(points.size());
+  std::vector<double> dist(points.size());
   constexpr int kIterations = 20;
   for (int it = 0; it < kIterations; ++it) {
     // Residual d_i - mean of its band, whose derivative is the unit direction's deviation
     // from its band's mean: the radii are eliminated.
-    std::vector<Eigen::Vector2d> dir(points.size());
-    std::vector<double> dist(points.size());
     std::array<Eigen::Vector2d, kSectionBands> dir_mean;
     std::array<double, kSectionBands> dist_mean{};
     for (auto& m : dir_mean) m.setZero();
@@ -255,9 +255,6 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
     return x[x.size() / 2];
   };
   centre += 0.5 * (median(left_depth) + median(right_depth)) * v;
-  // A round silhouette's ends are tangent points, in front of the centre by r^2 / D, and
-  // the band's median lies in front of them by about r sqrt(2 f - f^2) (f: the band's
-  // share of the width); a box's ends are its corners, level with the centre.
   // A round section's centre from its curvature, where it lies plausibly behind the middle
   // (a flat view has no curvature to go by: a leaf maps onto itself).
   round_section = round_section && !isFlatView(principalFrame(points), bounds.noise_m);
@@ -267,6 +264,9 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
       v.dot(circles) > v.dot(centre) && v.dot(circles) - v.dot(centre) <= kMaxCentreDepth * width) {
     centre = circles;
   } else if (round_section || roundness > 0.0) {
+    // A round silhouette's ends are tangent points, in front of the centre by r^2 / D, and
+    // the band's median lies in front of them by about r sqrt(2 f - f^2) (f: the band's
+    // share of the width); a box's ends are its corners, level with the centre.
     roundness = round_section ? 1.0 : roundness;
     const double r = 0.5 * width;
     Eigen::Vector3d to_centre = centre - viewpoint;

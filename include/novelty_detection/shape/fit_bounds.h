@@ -19,7 +19,6 @@
 //    upright: the fit keeps the axis nearest to up along it and turns only about up (the
 //    objects a patrol robot meets, boxes, bins, people, doors, stand upright; a one-sided
 //    view otherwise lets a box tilt to follow the noise).
-//
 //  - Resting on the floor. A tilting laser's lines lie 20-35 cm apart on an object 5-7 m
 //    away, and ground removal takes the returns within the floor's band: the lowest points
 //    left of a box standing there may be a line or two above the floor. Such an object rests
