@@ -1,7 +1,6 @@
 #include "novelty_detection/shape/fit_bounds.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -26,8 +25,6 @@ constexpr double kCornerExponent = 0.1;
 constexpr double kEndBand = 0.02;
 // Steps of the search for the first free space above a fit's top [m] (at least).
 constexpr double kGapStepM = 0.01;
-// Steps of the search for free space beneath a segment's lowest points [m] (at least).
-constexpr double kRestStepM = 0.02;
 }  // namespace
 
 bool FitBounds::standsOnFloor(const Points3d& points) const {
@@ -40,43 +37,6 @@ bool FitBounds::standsOnFloor(const Points3d& points) const {
   }
   if (lo <= floor_band_m + params.support_fraction * (hi - lo)) return true;
   return rests_on_floor && lo <= lowest_height_m + std::max(floor_band_m, margin_m);
-}
-
-bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
-                  const FitBounds& bounds) {
-  if (!bounds.has_floor || !bounds.view || segment.empty() || floor_points.empty()) return false;
-  double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (const auto& p : segment) {
-    low = std::min(low, bounds.heightAboveFloor(p));
-    high = std::max(high, bounds.heightAboveFloor(p));
-  }
-  const double band_top = low + std::max(2.0 * spacing, kRestBand * (high - low));
-  Points3d bottom;
-  for (const auto& p : segment)
-    if (bounds.heightAboveFloor(p) <= band_top) bottom.push_back(p);
-  bottom = subsample(bottom, kRestColumns);
-  const double step = std::max(bounds.margin_m, kRestStepM);
-  const double reach = std::max(bounds.margin_m, 2.0 * spacing);
-  int seen_beneath = 0, floor_at_foot = 0;
-  for (const auto& p : bottom) {
-    const double h = bounds.heightAboveFloor(p);
-    for (double d = step; h - d > bounds.floor_band_m; d += step) {
-      if (bounds.view->classify((p - d * bounds.up).cast<float>(), bounds.margin_m) ==
-          Visibility::kFree) {
-        ++seen_beneath;
-        break;
-      }
-    }
-    for (const auto& f : floor_points) {
-      const Eigen::Vector3d d = f - p;
-      if ((d - d.dot(bounds.up) * bounds.up).norm() <= reach) {
-        ++floor_at_foot;
-        break;
-      }
-    }
-  }
-  const double n = static_cast<double>(bottom.size());
-  return seen_beneath <= kMaxSeenBeneath * n && floor_at_foot >= kMinFloorAtFoot * n;
 }
 
 double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u) {
@@ -160,63 +120,6 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
       bounds.lowest_height_m = std::min(bounds.lowest_height_m, bounds.heightAboveFloor(p));
   }
   return bounds;
-}
-
-bool sectionCirclesCentre(const Points3d& points, const Eigen::Vector3d& up,
-                          const Eigen::Vector3d& start, Eigen::Vector3d* centre) {
-  if (points.size() < 3) return false;
-  // Floor-plan coordinates (x, y) and the height band of each point.
-  const Eigen::Vector3d ex = up.unitOrthogonal(), ey = up.cross(ex);
-  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
-  for (const auto& p : points) {
-    z_lo = std::min(z_lo, up.dot(p));
-    z_hi = std::max(z_hi, up.dot(p));
-  }
-  const double band_height = std::max(1e-9, (z_hi - z_lo) / kSectionBands);
-  std::vector<int> band(points.size());
-  std::vector<Eigen::Vector2d> xy(points.size());
-  std::array<double, kSectionBands> count{};
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    band[i] =
-        std::min(kSectionBands - 1, static_cast<int>((up.dot(points[i]) - z_lo) / band_height));
-    xy[i] = Eigen::Vector2d(ex.dot(points[i]), ey.dot(points[i]));
-    count[static_cast<std::size_t>(band[i])] += 1.0;
-  }
-  Eigen::Vector2d c(ex.dot(start), ey.dot(start));
-  std::vector<Eigen::Vector2d> dir(points.size());
-  std::vector<double> dist(points.size());
-  constexpr int kIterations = 20;
-  for (int it = 0; it < kIterations; ++it) {
-    // Residual d_i - mean of its band, whose derivative is the unit direction's deviation
-    // from its band's mean: the radii are eliminated.
-    std::array<Eigen::Vector2d, kSectionBands> dir_mean;
-    std::array<double, kSectionBands> dist_mean{};
-    for (auto& m : dir_mean) m.setZero();
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const Eigen::Vector2d d = xy[i] - c;
-      dist[i] = d.norm();
-      dir[i] = dist[i] > 1e-12 ? Eigen::Vector2d(d / dist[i]) : Eigen::Vector2d::Zero();
-      const auto b = static_cast<std::size_t>(band[i]);
-      dir_mean[b] += dir[i] / count[b];
-      dist_mean[b] += dist[i] / count[b];
-    }
-    Eigen::Matrix2d jtj = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d jtr = Eigen::Vector2d::Zero();
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const auto b = static_cast<std::size_t>(band[i]);
-      if (count[b] < 3.0) continue;  // a band of one or two points fixes no circle
-      const Eigen::Vector2d j = -(dir[i] - dir_mean[b]);
-      jtj += j * j.transpose();
-      jtr += j * (dist[i] - dist_mean[b]);
-    }
-    if (jtj.determinant() <= 1e-12 * (jtj.trace() * jtj.trace() + 1e-30)) return false;
-    const Eigen::Vector2d step = jtj.ldlt().solve(-jtr);
-    if (!step.allFinite()) return false;
-    c += step;
-    if (step.norm() < 1e-6) break;
-  }
-  *centre = c.x() * ex + c.y() * ey;
-  return c.allFinite();
 }
 
 Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, double roundness,
