@@ -479,7 +479,8 @@ struct SuperquadricParams {
     f("bounded_fit", bounded_fit,
       {"a segment's final fit is bounded by what the sweep observed around it: it pays for "
        "containing space the sensor saw through or surfaces that are not the segment's, and an "
-       "object whose points come down to the floor reaches the floor (shape/fit_bounds.h)"});
+       "object whose points come down to the floor, or whose lowest scan line is the floor at "
+       "its foot with no free space seen beneath it, reaches the floor (shape/fit_bounds.h)"});
     f("outside_weight", outside_weight,
       {"weight of the points a bounded fit must not contain (free space, other surfaces), "
        "relative to the segment's own points; 0: not used",
@@ -495,7 +496,8 @@ struct SuperquadricParams {
        0.0, 100.0});
     f("support_fraction", support_fraction,
       {"an object stands on the floor when its lowest point lies within the floor band plus "
-       "support_fraction times its own height above the floor",
+       "support_fraction times its own height above the floor (or when it rests on the floor: "
+       "shape/fit_bounds.h)",
        0.0, 1.0});
     f("upright", upright,
       {"a bounded fit of an object standing on the floor keeps one axis along up and turns only "
