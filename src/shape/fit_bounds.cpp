@@ -106,19 +106,16 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
       const Eigen::Vector3d p = sweep[i].getVector3fMap().cast<double>();
       if (!p.allFinite() || (p.array() < lo.array()).any() || (p.array() > hi.array()).any())
         continue;
-      if (bounds.has_floor && bounds.heightAboveFloor(p) <= bounds.floor_band_m + source.margin_m)
+      if (bounds.view && bounds.has_floor &&
+          bounds.heightAboveFloor(p) <= bounds.floor_band_m + source.margin_m)
         floor_points.push_back(p);
       if (grid && grid->nearest(p) >= 0) continue;
       outside.push_back(p);
     }
   }
   bounds.outside = subsample(outside, params.bound_points);
-  if (restsOnFloor(segment, floor_points, spacing, bounds)) {
-    bounds.rests_on_floor = true;
-    bounds.lowest_height_m = std::numeric_limits<double>::infinity();
-    for (const auto& p : segment)
-      bounds.lowest_height_m = std::min(bounds.lowest_height_m, bounds.heightAboveFloor(p));
-  }
+  bounds.rests_on_floor =
+      restsOnFloor(segment, floor_points, spacing, bounds, &bounds.lowest_height_m);
   return bounds;
 }
 

@@ -21,13 +21,14 @@ constexpr int kCircleIterations = 20;
 }  // namespace
 
 bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
-                  const FitBounds& bounds) {
+                  const FitBounds& bounds, double* lowest_height_m) {
   if (!bounds.has_floor || !bounds.view || segment.empty() || floor_points.empty()) return false;
   double low = std::numeric_limits<double>::infinity(), high = -low;
   for (const auto& p : segment) {
     low = std::min(low, bounds.heightAboveFloor(p));
     high = std::max(high, bounds.heightAboveFloor(p));
   }
+  if (lowest_height_m) *lowest_height_m = low;
   const double band_top = low + std::max(2.0 * spacing, kRestBand * (high - low));
   Points3d bottom;
   for (const auto& p : segment)

@@ -131,9 +131,10 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// them, sampled every margin (at least 2 cm) down to the band, and at least kMinFloorAtFoot
 /// have a point of `floor_points` (sweep returns within the band plus the margin of the
 /// floor) within the margin or twice the point spacing of them on the floor plan. False
-/// without a floor or a view.
+/// without a floor or a view. `lowest_height_m` (optional) receives the height of the
+/// segment's lowest point above the floor.
 bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
-                  const FitBounds& bounds);
+                  const FitBounds& bounds, double* lowest_height_m = nullptr);
 constexpr double kRestBand = 0.1;
 constexpr int kRestColumns = 32;
 constexpr double kMaxSeenBeneath = 0.25;
