@@ -458,6 +458,7 @@ struct SuperquadricParams {
   double split_gain = 0.9;
   double split_force_factor = 1.25;
   double merge_tolerance = 0.25;
+  double one_part_tolerance = 0.5;
   double error_floor_m = 0.002;
   double noise_factor = 1.5;
   double neighbour_distance_factor = 1.0;
@@ -556,6 +557,12 @@ struct SuperquadricParams {
        "(1 + merge_tolerance) times the worse part's and its volume at most (1 + "
        "merge_tolerance) times their sum",
        0.0, 10.0});
+    f("one_part_tolerance", one_part_tolerance,
+      {"a segment is one part, without split and merge, when its bounded fit (free space, floor, "
+       "hidden side) explains its points within (1 + one_part_tolerance) times the level at which "
+       "split and merge calls a fit exact: the bounds keep that fit from following its points as "
+       "closely as a free fit can; negative: always split and merge",
+       -1.0, 10.0});
     f("error_floor_m", error_floor_m,
       {"a fit with a smaller mean distance to its points is exact: it is not split, merges into it "
        "are "

@@ -138,40 +138,67 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   const bool round_section = !standing && round_check &&
                              round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub));
   if (round_section) best = ellipsoid;
+  const FitResult unbounded = best;
+
+  // The whole segment as one part, fitted within what the sweep observed.
+  const bool bounded_fit = bounds && !bounds->empty();
+  const auto bounded_whole = [&](const FitResult& start) {
+    // The ellipsoid kept: its section is round, and its centre is found from its
+    // curvature (fit_bounds.h).
+    Superquadric model = start.sq;
+    const Points3d seen = with_hidden_side(sub, 0.0, &model, false, round_section);
+    FitResult fit = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
+    // A round section's silhouette ends lie in front of its centre: mirror again knowing
+    // how round the first fit came out.
+    const double roundness = bounds->has_floor ? horizontalRoundness(fit.sq, bounds->up) : 0.0;
+    model = fit.sq;
+    const Points3d data = roundness > 0.0 ? with_hidden_side(sub, roundness, &model) : seen;
+    if (roundness > 0.0) fit = bounded.refine(data, model, -1, true, FitMeasures::kNone);
+    // Then once more with the middles of the gaps the sweep left around it, together
+    // weighing a quarter of the points.
+    const Points3d middles =
+        bounds->standsOnFloor(sub) ? gapMiddles(fit.sq, *bounds, &sub) : Points3d();
+    if (!middles.empty()) {
+      Points3d with_gaps = data;
+      const std::size_t copies = std::max<std::size_t>(1, data.size() / (4 * middles.size()));
+      for (std::size_t c = 0; c < copies; ++c)
+        with_gaps.insert(with_gaps.end(), middles.begin(), middles.end());
+      fit = bounded.refine(with_gaps, fit.sq, -1, true, FitMeasures::kNone);
+    }
+    thinToFlatView(sub, bounds->noise_m, params_.min_size_m, &fit.sq);
+    return fit;
+  };
 
   // Split and merge (Sec. V-C) on a larger subsample, so that small parts keep enough points.
   SplitMerge split_merge(params_);
   split_merge.setThreads(threads_);
   // The nugget of dense, noisy views comes out low; the sweep's noise model bounds it.
   if (bounds) split_merge.setSensorNoise(bounds->noise_m);
-  if (!standing) parts = split_merge.run(sm_points, &best);
-  if (parts.size() == 1) {
-    if (bounds && !bounds->empty()) {
-      // The ellipsoid kept: its section is round, and its centre is found from its
-      // curvature (fit_bounds.h).
-      Superquadric model = best.sq;
-      const Points3d seen = with_hidden_side(sub, 0.0, &model, false, round_section);
-      best = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
-      // A round section's silhouette ends lie in front of its centre: mirror again knowing
-      // how round the first fit came out.
-      const double roundness = bounds->has_floor ? horizontalRoundness(best.sq, bounds->up) : 0.0;
-      model = best.sq;
-      const Points3d data = roundness > 0.0 ? with_hidden_side(sub, roundness, &model) : seen;
-      if (roundness > 0.0) best = bounded.refine(data, model, -1, true, FitMeasures::kNone);
-      // Then once more with the middles of the gaps the sweep left around it, together
-      // weighing a quarter of the points.
-      const Points3d middles =
-          bounds->standsOnFloor(sub) ? gapMiddles(best.sq, *bounds, &sub) : Points3d();
-      if (!middles.empty()) {
-        Points3d with_gaps = data;
-        const std::size_t copies = std::max<std::size_t>(1, data.size() / (4 * middles.size()));
-        for (std::size_t c = 0; c < copies; ++c)
-          with_gaps.insert(with_gaps.end(), middles.begin(), middles.end());
-        best = bounded.refine(with_gaps, best.sq, -1, true, FitMeasures::kNone);
-      }
-      thinToFlatView(sub, bounds->noise_m, params_.min_size_m, &best.sq);
+  if (!standing && bounded_fit && params_.one_part_tolerance >= 0.0) {
+    // One part when the bounded fit explains the points nearly as an exact fit would (its
+    // distance measured as split and merge measures its fits): a free fit of a one-sided,
+    // noisy view often cuts through its points, and split and merge then cuts a single box
+    // or cylinder into pieces that each fit their few points closer.
+    best = bounded_whole(best);
+    const double distance =
+        meanSurfaceDistance(best.sq, subsample(sm_points, params_.split_fit_points));
+    if (distance <=
+        (1.0 + params_.one_part_tolerance) * split_merge.exactLevel(sm_points, best.sq)) {
+      parts.assign(1, SuperquadricPart());
+      parts.front().indices.resize(sm_points.size());
+      for (std::size_t i = 0; i < sm_points.size(); ++i)
+        parts.front().indices[i] = static_cast<int>(i);
+      parts.front().fit = best;
+    } else {
+      parts = split_merge.run(sm_points, &unbounded);
+      if (parts.size() == 1) parts.front().fit = best;
     }
-    parts.front().fit = best;
+  } else if (!standing) {
+    parts = split_merge.run(sm_points, &best);
+    if (parts.size() == 1) {
+      if (bounded_fit) best = bounded_whole(best);
+      parts.front().fit = best;
+    }
   }
 
   // Every fine point goes to its part: points left out by the subsampling take the part of

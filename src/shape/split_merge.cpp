@@ -151,6 +151,23 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   return std::sqrt(sq_diff[sq_diff.size() / 2] / (2.0 * 0.4549));
 }
 
+/// The scale split and merge works at: the radius of a typical two-dimensional neighbourhood
+/// times `factor`, a grid over the points at that radius (none when it is 0), and the local
+/// plane RMS (neighbourhoodScale()).
+struct Scale {
+  double radius = 0.0;
+  double plane_noise = 0.0;
+  std::unique_ptr<PointGrid> grid;
+};
+Scale scaleOf(const Points3d& points, double factor) {
+  Scale scale;
+  neighbourhoodScale(points, &scale.radius, &scale.plane_noise);
+  scale.radius *= factor;
+  if (scale.radius > 0.0 && std::isfinite(scale.radius))
+    scale.grid = std::make_unique<PointGrid>(points, scale.radius);
+  return scale;
+}
+
 /// Marks leaves whose points come closer than `radius`.
 void touchingLeaves(const Points3d& points, const PointGrid& grid, const std::vector<int>& label,
                     double radius, std::vector<std::vector<char>>& adjacent) {
@@ -192,6 +209,24 @@ void SplitMerge::completeMeasures(const Points3d& points,
   });
 }
 
+double SplitMerge::exactForNoise(double noise) const {
+  return (1.0 + params_.merge_tolerance) * kMeanAbsGaussian * noise;
+}
+
+double SplitMerge::exactLevel(const Points3d& points, const Superquadric& model) const {
+  if (points.empty()) throw std::invalid_argument("SplitMerge::exactLevel: no points");
+  const Scale scale = scaleOf(points, params_.neighbour_distance_factor);
+  double nugget = 0.0;
+  if (scale.grid) {
+    Indices all(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) all[i] = static_cast<int>(i);
+    const std::vector<int> owner(points.size(), 0);
+    nugget = residualNoise(points, all, owner, model, *scale.grid, scale.radius);
+  }
+  return std::max({params_.error_floor_m, params_.noise_factor * scale.plane_noise,
+                   exactForNoise(std::max(nugget, sensor_noise_))});
+}
+
 std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
                                               const FitResult* whole) const {
   if (points.empty()) throw std::invalid_argument("SplitMerge::run: no points");
@@ -203,12 +238,10 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
   // radial error is below `exact` explains its points within the noise.
-  double radius = 0.0;
-  neighbourhoodScale(points, &radius, &stats_.plane_noise_m);
-  stats_.noise_m = stats_.plane_noise_m;
-  radius *= params_.neighbour_distance_factor;
-  std::unique_ptr<PointGrid> grid;
-  if (radius > 0.0 && std::isfinite(radius)) grid = std::make_unique<PointGrid>(points, radius);
+  const Scale scale = scaleOf(points, params_.neighbour_distance_factor);
+  const double radius = scale.radius;
+  const PointGrid* grid = scale.grid.get();
+  stats_.plane_noise_m = stats_.noise_m = scale.plane_noise;
   // Not const: after splitting it is raised to the leaves' typical error (see below).
   double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
 
@@ -263,8 +296,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
     const double e = nodes[id].fit.mean_distance;
     // Exact: the fit explains the points within the noise seen in its own residuals (mean
     // distance of pure Gaussian noise: sqrt(2 / pi) sigma), up to the merge's slack t.
-    const double exact_here =
-        std::max(exact, (1.0 + params_.merge_tolerance) * kMeanAbsGaussian * nodes[id].noise);
+    const double exact_here = std::max(exact, exactForNoise(nodes[id].noise));
     if (e <= exact_here || idx.size() < 2 * min_points) continue;
     const PrincipalFrame frame = principalFrame(gather(points, idx));
     const Eigen::Vector3d axis = frame.axes.col(2);  // main inertia axis

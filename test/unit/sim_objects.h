@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "novelty_detection/preprocess/multiscale_tree.h"
 #include "novelty_detection/preprocess/range_noise.h"
 #include "novelty_detection/shape/fit_bounds.h"
 #include "novelty_detection/shape/superquadric_fit.h"
@@ -39,16 +40,29 @@ struct ObjectBounds {
   FitBounds bounds;
 };
 
+/// The sweep's noise model as the detector estimates it (from the multi-scale tree of the
+/// whole current sweep): normal to surfaces, below the simulator's range sigma.
+inline RangeNoise sweepNoise(const sim::ScenePair& scene) {
+  MultiScaleTree tree;
+  tree.build(scene.current);
+  const Eigen::Vector3f origin = scene.current.sensor_origin_.head<3>();
+  return estimateRangeNoise(tree, &origin);
+}
+
+/// Bounds of object `id` as the detector builds them; `noise` (optional) replaces the noise
+/// model, the simulator's range sigma by default.
 inline std::unique_ptr<ObjectBounds> boundsOf(const sim::ScenePair& scene,
                                               const sim::SceneConfig& cfg, int id,
                                               const Points3d& fine,
-                                              const SuperquadricParams& params) {
+                                              const SuperquadricParams& params,
+                                              const RangeNoise* noise = nullptr) {
   auto b = std::make_unique<ObjectBounds>();
   const double sigma = std::sqrt(cfg.laser.noise_variance_m2);
   b->view.build(scene.current, {}, scene.current.sensor_origin_.head<3>(),
                 rangeImageConfig(VisibilityParams()));
   b->noise.estimated = true;
   b->noise.scale = sigma;
+  if (noise) b->noise = *noise;
   b->source.sweep = &scene.current;
   b->source.labels = &scene.current_labels;
   b->source.view = &b->view;

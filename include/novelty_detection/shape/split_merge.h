@@ -89,6 +89,12 @@ class SplitMerge {
   /// is an already fitted model of all points, reused as the root's fit.
   std::vector<SuperquadricPart> run(const Points3d& points, const FitResult* whole = nullptr) const;
 
+  /// The mean point-to-surface distance up to which run() would keep `model`, a fit of all of
+  /// `points`, whole: max(E, (1 + t) sqrt(2 / pi) sigma_P) with E = max(error_floor_m,
+  /// noise_factor x local plane RMS) and sigma_P the nugget of the model's residuals (at least
+  /// the sensor noise) [m].
+  double exactLevel(const Points3d& points, const Superquadric& model) const;
+
   /// Counters of the last run() (for tests and benchmarks).
   struct Stats {
     int leaves = 0;      ///< parts after splitting
@@ -107,6 +113,9 @@ class SplitMerge {
   // Phases of run(): scale, noise and split in split_merge.cpp; merge, dissolution and
   // boundary reassignment in split_merge_regroup.cpp.
 
+  /// The mean distance of a fit whose residuals are noise of sigma `noise` alone, up to the
+  /// merge tolerance: (1 + t) sqrt(2 / pi) noise.
+  double exactForNoise(double noise) const;
   /// LM iteration cap of the fits inside split and merge (they only rank candidates).
   int innerIterations() const;
   /// Ranking fit of the points at `indices` (subsampled to split_fit_points) from `start`.
