@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <random>
 
 #include "novelty_detection/shape/superquadric.h"
@@ -47,6 +48,14 @@ inline Points3d noisySamples(const Superquadric& sq, int count, double sigma_m, 
     out.push_back(q);
   }
   return out;
+}
+
+/// Mean over the sorted axes of |fitted - true| [m]: the size error whatever the axes' order.
+inline double semiAxisError(const Superquadric& fit, const Superquadric& truth) {
+  Eigen::Vector3d a = fit.a, b = truth.a;
+  std::sort(a.data(), a.data() + 3);
+  std::sort(b.data(), b.data() + 3);
+  return (a - b).cwiseAbs().mean();
 }
 
 /// Mean radial distance of the clean (noise-free) ground-truth surface samples to a fitted

@@ -20,18 +20,7 @@
 
 using namespace novelty_detection;
 using samples::makeSq;
-
-namespace {
-
-/// Mean over the sorted axes of |fitted - true| [m].
-double semiAxisError(const Superquadric& fit, const Superquadric& truth) {
-  Eigen::Vector3d a = fit.a, b = truth.a;
-  std::sort(a.data(), a.data() + 3);
-  std::sort(b.data(), b.data() + 3);
-  return (a - b).cwiseAbs().mean();
-}
-
-}  // namespace
+using samples::semiAxisError;
 
 TEST(FitBounds, ExtentAlongIsTheSurfacesFarthestReach) {
   const Superquadric shapes[] = {makeSq({0.4, 0.4, 0.4}, 1.0, 1.0, {0, 0, 0}, {1, 2, 3}),

@@ -20,16 +20,9 @@
 #include "superquadric_samples.h"
 
 using namespace novelty_detection;
+using samples::semiAxisError;
 
 namespace {
-
-/// Mean over the sorted axes of |fitted - true| [m].
-double semiAxisError(const Superquadric& fit, const Superquadric& truth) {
-  Eigen::Vector3d a = fit.a, b = truth.a;
-  std::sort(a.data(), a.data() + 3);
-  std::sort(b.data(), b.data() + 3);
-  return (a - b).cwiseAbs().mean();
-}
 
 struct Counts {
   int objects = 0;
