@@ -138,7 +138,6 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   const bool round_section = !standing && round_check &&
                              round_wins(ellipsoid.mean_distance, meanSurfaceDistance(best.sq, sub));
   if (round_section) best = ellipsoid;
-  const FitResult unbounded = best;
 
   // The whole segment as one part, fitted within what the sweep observed.
   const bool bounded_fit = bounds && !bounds->empty();
@@ -174,30 +173,15 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
   split_merge.setThreads(threads_);
   // The nugget of dense, noisy views comes out low; the sweep's noise model bounds it.
   if (bounds) split_merge.setSensorNoise(bounds->noise_m);
-  if (!standing && bounded_fit && params_.one_part_tolerance >= 0.0) {
-    // One part when the bounded fit explains the points nearly as an exact fit would (its
-    // distance measured as split and merge measures its fits): a free fit of a one-sided,
-    // noisy view often cuts through its points, and split and merge then cuts a single box
-    // or cylinder into pieces that each fit their few points closer.
-    best = bounded_whole(best);
-    const double distance =
-        meanSurfaceDistance(best.sq, subsample(sm_points, params_.split_fit_points));
-    if (distance <=
-        (1.0 + params_.one_part_tolerance) * split_merge.exactLevel(sm_points, best.sq)) {
-      parts.assign(1, SuperquadricPart());
-      parts.front().indices.resize(sm_points.size());
-      for (std::size_t i = 0; i < sm_points.size(); ++i)
-        parts.front().indices[i] = static_cast<int>(i);
-      parts.front().fit = best;
-    } else {
-      parts = split_merge.run(sm_points, &unbounded);
-      if (parts.size() == 1) parts.front().fit = best;
-    }
-  } else if (!standing) {
-    parts = split_merge.run(sm_points, &best);
+  if (!standing) {
+    // With bounds, the bounded whole fit is also the one part split and merge keeps when it
+    // explains the points (SplitMerge::run()); without that test it is made only when split
+    // and merge leaves one part.
+    const bool one_part_test = bounded_fit && params_.one_part_tolerance >= 0.0;
+    const FitResult whole = one_part_test ? bounded_whole(best) : FitResult();
+    parts = split_merge.run(sm_points, &best, one_part_test ? &whole : nullptr);
     if (parts.size() == 1) {
-      if (bounded_fit) best = bounded_whole(best);
-      parts.front().fit = best;
+      parts.front().fit = one_part_test ? whole : bounded_fit ? bounded_whole(best) : best;
     }
   }
 

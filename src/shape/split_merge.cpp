@@ -151,23 +151,6 @@ double residualNoise(const Points3d& points, const Indices& part, const std::vec
   return std::sqrt(sq_diff[sq_diff.size() / 2] / (2.0 * 0.4549));
 }
 
-/// The scale split and merge works at: the radius of a typical two-dimensional neighbourhood
-/// times `factor`, a grid over the points at that radius (none when it is 0), and the local
-/// plane RMS (neighbourhoodScale()).
-struct Scale {
-  double radius = 0.0;
-  double plane_noise = 0.0;
-  std::unique_ptr<PointGrid> grid;
-};
-Scale scaleOf(const Points3d& points, double factor) {
-  Scale scale;
-  neighbourhoodScale(points, &scale.radius, &scale.plane_noise);
-  scale.radius *= factor;
-  if (scale.radius > 0.0 && std::isfinite(scale.radius))
-    scale.grid = std::make_unique<PointGrid>(points, scale.radius);
-  return scale;
-}
-
 /// Marks leaves whose points come closer than `radius`.
 void touchingLeaves(const Points3d& points, const PointGrid& grid, const std::vector<int>& label,
                     double radius, std::vector<std::vector<char>>& adjacent) {
@@ -213,9 +196,28 @@ double SplitMerge::exactForNoise(double noise) const {
   return (1.0 + params_.merge_tolerance) * kMeanAbsGaussian * noise;
 }
 
+struct SplitMerge::Scale {
+  double radius = 0.0;              ///< neighbourhood radius times neighbour_distance_factor [m]
+  double plane_noise = 0.0;         ///< local plane RMS [m]
+  std::unique_ptr<PointGrid> grid;  ///< at `radius`; none when it is 0
+};
+
+SplitMerge::Scale SplitMerge::scaleOf(const Points3d& points) const {
+  Scale scale;
+  neighbourhoodScale(points, &scale.radius, &scale.plane_noise);
+  scale.radius *= params_.neighbour_distance_factor;
+  if (scale.radius > 0.0 && std::isfinite(scale.radius))
+    scale.grid = std::make_unique<PointGrid>(points, scale.radius);
+  return scale;
+}
+
 double SplitMerge::exactLevel(const Points3d& points, const Superquadric& model) const {
   if (points.empty()) throw std::invalid_argument("SplitMerge::exactLevel: no points");
-  const Scale scale = scaleOf(points, params_.neighbour_distance_factor);
+  return exactLevel(points, model, scaleOf(points));
+}
+
+double SplitMerge::exactLevel(const Points3d& points, const Superquadric& model,
+                              const Scale& scale) const {
   double nugget = 0.0;
   if (scale.grid) {
     Indices all(points.size());
@@ -227,8 +229,8 @@ double SplitMerge::exactLevel(const Points3d& points, const Superquadric& model)
                    exactForNoise(std::max(nugget, sensor_noise_))});
 }
 
-std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
-                                              const FitResult* whole) const {
+std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points, const FitResult* whole,
+                                              const FitResult* bounded_whole) const {
   if (points.empty()) throw std::invalid_argument("SplitMerge::run: no points");
   stats_ = Stats();
   auto fit_part = [&](const Indices& indices) {
@@ -238,7 +240,20 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points,
 
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
   // radial error is below `exact` explains its points within the noise.
-  const Scale scale = scaleOf(points, params_.neighbour_distance_factor);
+  const Scale scale = scaleOf(points);
+  // One part when the bounded fit explains the points nearly as an exact fit would (its
+  // distance measured as the ranking fits' are): a free fit of a one-sided, noisy view often
+  // cuts through its points, and splitting then cuts a single box or cylinder into pieces
+  // that each fit their few points closer.
+  if (bounded_whole && params_.one_part_tolerance >= 0.0 &&
+      meanSurfaceDistance(bounded_whole->sq, subsample(points, params_.split_fit_points)) <=
+          (1.0 + params_.one_part_tolerance) * exactLevel(points, bounded_whole->sq, scale)) {
+    std::vector<SuperquadricPart> one(1);
+    one.front().indices.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) one.front().indices[i] = static_cast<int>(i);
+    one.front().fit = *bounded_whole;
+    return one;
+  }
   const double radius = scale.radius;
   const PointGrid* grid = scale.grid.get();
   stats_.plane_noise_m = stats_.noise_m = scale.plane_noise;

@@ -86,8 +86,12 @@ class SplitMerge {
   }
 
   /// Parts of `points` (one connected object or a few touching ones). `whole` (optional)
-  /// is an already fitted model of all points, reused as the root's fit.
-  std::vector<SuperquadricPart> run(const Points3d& points, const FitResult* whole = nullptr) const;
+  /// is an already fitted model of all points, reused as the root's fit. `bounded_whole`
+  /// (optional): a fit of all points within what the sweep observed (fit_bounds.h); when
+  /// one_part_tolerance >= 0 and its mean distance (on split_fit_points of them) is within
+  /// (1 + one_part_tolerance) exactLevel(), it is the one part returned and nothing is split.
+  std::vector<SuperquadricPart> run(const Points3d& points, const FitResult* whole = nullptr,
+                                    const FitResult* bounded_whole = nullptr) const;
 
   /// The mean point-to-surface distance up to which run() would keep `model`, a fit of all of
   /// `points`, whole: max(E, (1 + t) sqrt(2 / pi) sigma_P) with E = max(error_floor_m,
@@ -116,6 +120,12 @@ class SplitMerge {
   /// The mean distance of a fit whose residuals are noise of sigma `noise` alone, up to the
   /// merge tolerance: (1 + t) sqrt(2 / pi) noise.
   double exactForNoise(double noise) const;
+  /// The point spacing of a point set (times neighbour_distance_factor), a grid over the
+  /// points at that spacing and their local plane RMS (split_merge.cpp).
+  struct Scale;
+  Scale scaleOf(const Points3d& points) const;
+  /// exactLevel() at a scale already measured.
+  double exactLevel(const Points3d& points, const Superquadric& model, const Scale& scale) const;
   /// LM iteration cap of the fits inside split and merge (they only rank candidates).
   int innerIterations() const;
   /// Ranking fit of the points at `indices` (subsampled to split_fit_points) from `start`.
