@@ -4,13 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <map>
 #include <optional>
 #include <set>
 #include <tuple>
 
-#include "novelty_detection/point_grid.h"
 #include "plane_fit.h"
 
 namespace novelty_detection {
@@ -20,10 +18,12 @@ using detail::fitPlane;
 using detail::Plane;
 
 // Test 2 on the surface of `points` points (surfacePlane below: `surface` of them on it, its
-// plane's spreads): most of them on it, a plane (width above tau) and noise-sized thickness.
+// plane's spreads): most of them on it, a plane (wide enough, flatter across than along it)
+// and noise-sized thickness.
 bool surfacePatch(std::size_t points, std::size_t surface, double width_m, double thickness_m,
                   double tau) {
-  return surface >= kMinSurfaceShare * points && width_m > tau && !(thickness_m > tau);
+  return surface >= kMinSurfaceShare * points && width_m >= kMinPatchWidth * tau &&
+         thickness_m < kMaxLocalFlatness * width_m && !(thickness_m > tau);
 }
 
 // The plane of a segment's surface (test 2): the plane of all its points when they are no
@@ -77,6 +77,11 @@ CellKey cellOf(const Eigen::Vector3f& p, double size) {
           static_cast<long long>(c.z())};
 }
 
+// The structure's own surface around a point, against a segment's plane (test 3): a plane
+// parallel to it, another plane, or another plane that runs on into structure that
+// disappeared (what is left of a surface that moved: the old leaf about the new one's hinge).
+enum class LocalSurface { kUnknown, kParallel, kOther, kLeftBehind };
+
 // Test 3: reference structure around the segment, and how much of it lies on its plane. The
 // segment is queried at one point per voxel of half the ring radius (the ring is the
 // structure within ring_factor * tau of those points), so the cost follows its area / tau^2.
@@ -89,17 +94,36 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double on_plane = params.hidden.plane_factor * ctx.tau;
   const double beside = params.hidden.parallel_factor * ctx.tau;
   const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
-  // Whether the structure around point `id` is a plane parallel to the segment's, asked once
-  // per cell of tau (the surface measured at the first point asked in it).
-  std::map<CellKey, bool> parallel_in;
-  const auto parallel = [&](int id) {
+  const auto isGone = [&](int j) {
+    return ctx.gone && static_cast<std::size_t>(j) < ctx.gone->size() && (*ctx.gone)[j];
+  };
+  // The surface of the structure around point `id` against the segment's plane, measured
+  // once per cell of tau (at the first point asked in it).
+  std::map<CellKey, LocalSurface> surface_in;
+  const auto surface = [&](int id) {
     const Eigen::Vector3f q = ctx.structure->point(id);
-    const auto [it, added] = parallel_in.emplace(cellOf(q, ctx.tau), false);
+    const auto [it, added] = surface_in.emplace(cellOf(q, ctx.tau), LocalSurface::kUnknown);
     if (!added) return it->second;
+    // Of the structure that is still there: a disappeared leaf beside a wall is no part of
+    // the wall's surface.
+    std::vector<int> local_ids;
     const auto plane_within = [&](double r) {
-      const NearestNeighbourIndex::Neighbourhood nb = ctx.structure->neighbourhood(q, r);
-      if (nb.count < static_cast<std::size_t>(kMinLocalPoints)) return std::optional<Plane>();
-      const Plane local = detail::planeOf(nb.centroid, nb.covariance);
+      local_ids.clear();
+      ctx.structure->withinIds(q, r, &local_ids);
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+      std::size_t count = 0;
+      for (int j : local_ids) {
+        if (isGone(j)) continue;
+        const Eigen::Vector3d x = ctx.structure->point(j).cast<double>();
+        sum += x;
+        outer += x * x.transpose();
+        ++count;
+      }
+      if (count < static_cast<std::size_t>(kMinLocalPoints)) return std::optional<Plane>();
+      const Eigen::Vector3d centroid = sum / static_cast<double>(count);
+      const Plane local = detail::planeOf(
+          centroid, outer / static_cast<double>(count) - centroid * centroid.transpose());
       if (!(local.sd(0) < kMaxLocalFlatness * local.sd(1)) ||
           !(local.sd(1) >= kMinLocalWidth * ctx.tau))
         return std::optional<Plane>();
@@ -108,7 +132,22 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
     const double r = kLocalPlaneFactor * ctx.tau;
     std::optional<Plane> local = plane_within(r);
     if (!local && 2.0 * r <= radius) local = plane_within(2.0 * r);
-    it->second = local && std::abs(local->normal.dot(plane.normal)) >= min_cos;
+    if (!local) return it->second;
+    if (std::abs(local->normal.dot(plane.normal)) >= min_cos) {
+      it->second = LocalSurface::kParallel;
+      return it->second;
+    }
+    // Left behind when its own plane runs on into disappeared structure within the ring.
+    it->second = LocalSurface::kOther;
+    local_ids.clear();
+    ctx.structure->withinIds(q, radius, &local_ids);
+    for (int j : local_ids) {
+      if (isGone(j) && std::abs(local->normal.dot(ctx.structure->point(j).cast<double>() -
+                                                  local->centroid)) <= on_plane) {
+        it->second = LocalSurface::kLeftBehind;
+        break;
+      }
+    }
     return it->second;
   };
   const double voxel = std::max(0.5 * radius, 1e-3);
@@ -126,8 +165,10 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
       const Eigen::Vector3d q = ctx.structure->point(id).cast<double>();
       const double off = std::abs(plane.normal.dot(q - plane.centroid));
       if (off <= on_plane) {
-        ++e->ring_coplanar;
-      } else if (off <= beside && parallel(id)) {
+        // What is left of a surface that moved and crosses the segment's plane (the old leaf
+        // about the new one's hinge) lies on it only along the line where they meet.
+        if (surface(id) != LocalSurface::kLeftBehind) ++e->ring_coplanar;
+      } else if (off <= beside && surface(id) == LocalSurface::kParallel) {
         ++e->ring_coplanar;
         ++e->ring_parallel;
       }
@@ -245,17 +286,22 @@ HiddenSegmentEvidence measureHiddenSegment(const HiddenSegmentContext& ctx, cons
   e.width_m = plane.sd(1);
   e.thickness_m = plane.sd(0);
   if (ctx.structure) measureRing(ctx, surface, plane, params, &e);
-  if (ctx.current_image && !ctx.current_image->empty())
+  if (ctx.current_image && !ctx.current_image->empty()) {
+    e.origin_offset_m =
+        std::abs(plane.normal.dot(plane.centroid - ctx.current_image->origin().cast<double>()));
     measureOutline(ctx, surface, plane, params, &e);
+  }
   return e;
 }
 
 bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
                           const SegmentationParams& params) {
-  if (2 * e.occluded < e.points) return false;                                          // 1
-  if (!surfacePatch(e.points, e.surface, e.width_m, e.thickness_m, tau)) return false;  // 2
-  if (e.ring == 0 || continuesMap(e, params)) return false;                             // 3
-  const int outline = e.past + e.on;                                                    // 4
+  if (2 * e.occluded < e.points) return false;                              // 1
+  if (!surfacePatch(e.points, e.surface, e.width_m, e.thickness_m, tau) ||  // 2
+      (e.origin_offset_m >= 0.0 && !(e.origin_offset_m > tau)))
+    return false;
+  if (e.ring == 0 || continuesMap(e, params)) return false;  // 3
+  const int outline = e.past + e.on;                         // 4
   return outline > 0 && e.past >= params.hidden.min_free_edge * outline;
 }
 
@@ -305,76 +351,6 @@ bool revealedSurface(const HiddenSegmentContext& ctx, const Indices& points,
   HiddenSegmentEvidence e;
   measureRing(ctx, surface, plane, params, &e);
   return continuesMap(e, params);
-}
-
-bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,
-                      const Indices& points, const SegmentationParams& params) {
-  if (points.empty() || segment.empty() || !ctx.current || !(ctx.tau > 0.0)) return false;
-  const Cloud& cloud = *ctx.current;
-  const double radius = params.hidden.ring_factor * ctx.tau;
-  Points3d pts;
-  pts.reserve(points.size());
-  for (int i : points) pts.push_back(cloud[i].getVector3fMap().cast<double>());
-  const PointGrid grid(pts, radius);
-  Indices near;  // the segment's points around them
-  for (int i : segment) {
-    bool close = false;
-    grid.forNeighbours(cloud[i].getVector3fMap().cast<double>(), radius,
-                       [&](int) { close = true; });
-    if (close) near.push_back(i);
-  }
-  if (near.size() < 3) return false;
-  const Plane plane = fitPlane(cloud, near);
-  const double on_plane = params.hidden.plane_factor * ctx.tau;
-  std::size_t on = 0;
-  for (const Eigen::Vector3d& p : pts)
-    on += std::abs(plane.normal.dot(p - plane.centroid)) <= on_plane;
-  return 2 * on >= points.size();
-}
-
-void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
-                    double link_radius_m, double max_growth, const HiddenSegmentContext* revealed,
-                    const SegmentationParams* params) {
-  if (!segments || segments->empty() || hidden.empty() || !(link_radius_m > 0.0) ||
-      !std::isfinite(link_radius_m)) {
-    return;
-  }
-  std::vector<char> taken_by_segment(current.size(), 0);
-  for (const Indices& s : *segments)
-    for (int i : s) taken_by_segment[static_cast<std::size_t>(i)] = 1;
-  Indices free;
-  Points3d pts;
-  for (int i : hidden) {
-    if (taken_by_segment[static_cast<std::size_t>(i)]) continue;
-    free.push_back(i);
-    pts.push_back(current[i].getVector3fMap().cast<double>());
-  }
-  if (free.empty()) return;
-  const PointGrid grid(pts, link_radius_m);
-  std::vector<char> used(free.size(), 0);
-  for (Indices& seg : *segments) {
-    // Breadth first from the segment's points (nearest links first), up to the cap.
-    const std::size_t cap = static_cast<std::size_t>(max_growth * static_cast<double>(seg.size()));
-    std::deque<Eigen::Vector3d> frontier;
-    for (int i : seg) frontier.push_back(current[i].getVector3fMap().cast<double>());
-    Indices added;
-    while (!frontier.empty() && added.size() < cap) {
-      const Eigen::Vector3d p = frontier.front();
-      frontier.pop_front();
-      grid.forNeighbours(p, link_radius_m, [&](int k) {
-        if (used[static_cast<std::size_t>(k)] || added.size() >= cap) return;
-        used[static_cast<std::size_t>(k)] = 1;
-        added.push_back(free[static_cast<std::size_t>(k)]);
-        frontier.push_back(pts[static_cast<std::size_t>(k)]);
-      });
-    }
-    if (added.empty()) continue;
-    if (revealed && params && revealedSurface(*revealed, added, *params) &&
-        !continuesSegment(*revealed, seg, added, *params))
-      continue;
-    seg.insert(seg.end(), added.begin(), added.end());
-    std::sort(seg.begin(), seg.end());
-  }
 }
 
 }  // namespace novelty_detection

@@ -116,8 +116,19 @@ TEST(HiddenSegments, RuleClauses) {
   e.occluded = 90;  // mostly out of the reference's view, not behind something it saw
   EXPECT_FALSE(hiddenSegmentIsNovel(e, tau, p));
   e = doorLike(tau);
-  e.width_m = 0.9 * tau;  // a line: no plane
+  e.width_m = 0.74 * tau;  // a line: no plane
+  e.thickness_m = 0.1 * tau;
   EXPECT_FALSE(hiddenSegmentIsNovel(e, tau, p));
+  e.width_m = 0.75 * tau;  // a strip 3/4 tau wide, many times as wide as thick: a plane
+  EXPECT_TRUE(hiddenSegmentIsNovel(e, tau, p));
+  e = doorLike(tau);
+  e.thickness_m = 0.5 * e.width_m;  // no flatter across its plane than within it: no plane
+  EXPECT_FALSE(hiddenSegmentIsNovel(e, tau, p));
+  e = doorLike(tau);
+  e.origin_offset_m = tau;  // its plane passes within tau of the sensor: a scan line's own
+  EXPECT_FALSE(hiddenSegmentIsNovel(e, tau, p));
+  e.origin_offset_m = 1.01 * tau;
+  EXPECT_TRUE(hiddenSegmentIsNovel(e, tau, p));
   e = doorLike(tau);
   e.thickness_m = 1.1 * tau;  // not a surface patch
   EXPECT_FALSE(hiddenSegmentIsNovel(e, tau, p));

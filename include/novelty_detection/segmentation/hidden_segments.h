@@ -7,23 +7,30 @@
 // novelty segments) is novel when all of these hold:
 // 1. the reference saw something in front of most of its points (occluded, not out of view
 //    or about there: nothing is known of what it never looked at);
-// 2. it is a surface patch: its second principal spread exceeds tau, so it has a plane
-//    (normal = least principal axis), and its thickness across that plane (least principal
-//    spread) is at most tau (noise-sized); when its points as a whole are thicker, on its
-//    surface: the points near the plane that most of them fit (kSurfaceTrim and below), at
-//    least kMinSurfaceShare of them. A few returns linked to a far leaf across a gap between
-//    tilt lines are not part of it; two surfaces at an angle or a blob are no patch. Tests 3
-//    and 4 measure the surface, and a novel segment is its surface;
+// 2. it is a surface patch: it has a plane (normal = least principal axis): its second
+//    principal spread is at least kMinPatchWidth * tau and its thickness across the plane
+//    (least principal spread) below kMaxLocalFlatness of that and at most tau (noise-sized),
+//    and the plane lies farther than tau from the current sensor (a plane through the sensor
+//    is one scan line's: range noise moves its points along their rays, inside the scan's
+//    plane); when its points as a whole are thicker, on its surface: the points near the
+//    plane that most of them fit (kSurfaceTrim and below), at least kMinSurfaceShare of
+//    them. A few returns linked to a far leaf across a gap between tilt lines are not part
+//    of it; two surfaces at an angle or a blob are no patch. Tests 3 and 4 measure the
+//    surface, and a novel segment is its surface;
 // 3. it is not a continuation of mapped structure: of the reference points (no ground, not
 //    disappeared) within ring_factor * tau of it (of one of its points per voxel of half
 //    that radius), at least one exists and fewer than
 //    max_coplanar lie on its plane (a revealed wall continues the mapped wall around it; a
 //    door leaf at a new angle meets the map only along its hinge). A structure point lies on
 //    it within plane_factor * tau, or within parallel_factor * tau where its own surface
-//    (the structure within kLocalPlaneFactor * tau of it) is a plane parallel to the
-//    segment's, normals within kParallelDeg: a sweep registered with a small rotation error
-//    sees the mapped wall beside the revealed one, offset by the error times the range,
-//    while the wall a leaf's hinge meets crosses the leaf's plane at the leaf's angle;
+//    (the structure still there within kLocalPlaneFactor * tau of it) is a plane parallel
+//    to the segment's, normals within kParallelDeg: a sweep registered with a small rotation
+//    error sees the mapped wall beside the revealed one, offset by the error times the range,
+//    while the wall a leaf's hinge meets crosses the leaf's plane at the leaf's angle. What
+//    is left of a surface that moved lies on no plane it crosses: a point whose own surface
+//    crosses the segment's plane and runs on (within plane_factor * tau of its plane) into
+//    disappeared structure within the ring (the old leaf's part about the hinge, which the
+//    new leaf hides) is not on it;
 // 4. it stands in space: of the current sweep's rays (points) in the cells of its own
 //    range image within outline_factor * tau (at the segment's median range) around the
 //    segment's cells, those that end past its plane by more than the visibility margin are
@@ -49,15 +56,16 @@ namespace novelty_detection {
 /// The measurements behind the rule, for one segment.
 struct HiddenSegmentEvidence {
   int points = 0;
-  int surface = 0;           ///< of those, on its surface's plane (test 2)
-  int occluded = 0;          ///< points the reference saw something in front of
-  double width_m = 0.0;      ///< second principal standard deviation
-  double thickness_m = 0.0;  ///< least principal standard deviation (across the plane)
-  int ring = 0;              ///< reference structure points around it (not disappeared)
-  int ring_coplanar = 0;     ///< of those, on its plane
-  int ring_parallel = 0;     ///< of those, beyond plane_factor * tau: parallel and near
-  int past = 0;              ///< outline rays of the current sweep that reach past its plane
-  int on = 0;                ///< outline rays that end on its plane
+  int surface = 0;                ///< of those, on its surface's plane (test 2)
+  int occluded = 0;               ///< points the reference saw something in front of
+  double width_m = 0.0;           ///< second principal standard deviation
+  double thickness_m = 0.0;       ///< least principal standard deviation (across the plane)
+  int ring = 0;                   ///< reference structure points around it (not disappeared)
+  int ring_coplanar = 0;          ///< of those, on its plane
+  int ring_parallel = 0;          ///< of those, beyond plane_factor * tau: parallel and near
+  int past = 0;                   ///< outline rays of the current sweep that reach past its plane
+  int on = 0;                     ///< outline rays that end on its plane
+  double origin_offset_m = -1.0;  ///< distance of its plane from the current sensor (-1: unknown)
 };
 
 /// Test 2's surface, for a segment whose points as a whole lie thicker than tau about their
@@ -68,6 +76,11 @@ struct HiddenSegmentEvidence {
 /// wall linked to a leaf across the gap between two tilt lines (the link radius grows with
 /// range) are not part of it.
 constexpr double kSurfaceTrim = 0.8;
+/// Test 2's plane: the surface's second principal spread at least kMinPatchWidth * tau and its
+/// least below kMaxLocalFlatness of the second (flatter across than along), and the plane
+/// farther than tau from the current sensor: one scan line's points, which range noise moves
+/// along their rays, lie in the scan's plane through the sensor, not in the surface's.
+constexpr double kMinPatchWidth = 0.75;
 constexpr int kSurfaceRounds = 2;
 constexpr double kSurfaceBand = 2.0;
 constexpr double kMinSurfaceShare = 0.8;
@@ -145,7 +158,11 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
 /// segment's continuation that is a revealed surface (revealedSurface) and does not continue
 /// the segment's own surface (continuesSegment) is none: the wall or recess an old door leaf
 /// hid, now seen beside the leaf; those candidates join no segment. The part of the leaf the
-/// reference could not see continues the leaf's plane and joins it.
+/// reference could not see continues the leaf's plane and joins it, past the cap too: when
+/// the continuation continues the segment's own surface, the further candidates linked to
+/// them within hidden_plane_factor * tau of that surface's plane join, except those with
+/// reference structure (still there) within kLocalPlaneFactor * tau that lies on the plane
+/// (a wall the leaf nearly closes against).
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
                     double link_radius_m, double max_growth,
                     const HiddenSegmentContext* revealed = nullptr,
