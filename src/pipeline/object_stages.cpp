@@ -54,11 +54,12 @@ void addHiddenNovelties(Detection& d) {
   const Indices& kept = d.ref.kept;
   std::vector<std::uint8_t> gone(kept.size(), 0);  // per structure point
   for (std::size_t k = 0; k < kept.size(); ++k) gone[k] = d.result.disappeared_labels[kept[k]] > 0;
+  const NearestNeighbourIndex gone_points = goneIndex(d.ref.structure, gone);
   if (hiddenSegmentRuleApplies(d)) {
     for (Indices& seg :
          novelHiddenSegments(*d.current, cand.hidden, cand.hidden_owner, cand.hidden_vis,
                              static_cast<int>(d.result.current_gmm.size()), d.ref.structure, gone,
-                             d.tau, d.params, &d.current_view))
+                             d.tau, d.params, &d.current_view, &gone_points))
       d.pieces.push_back(std::move(seg));
     std::stable_sort(d.pieces.begin(), d.pieces.end(),
                      [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
@@ -70,6 +71,7 @@ void addHiddenNovelties(Detection& d) {
     revealed.current = d.current;
     revealed.structure = &d.ref.structure;
     revealed.gone = &gone;
+    revealed.gone_points = &gone_points;
     revealed.tau = d.tau;
     growIntoHidden(*d.current, &d.pieces, cand.hidden, d.link_radius,
                    d.params.segmentation.hidden.max_growth, &revealed, &d.params.segmentation);

@@ -77,6 +77,31 @@ CellKey cellOf(const Eigen::Vector3f& p, double size) {
           static_cast<long long>(c.z())};
 }
 
+using Neighbourhood = NearestNeighbourIndex::Neighbourhood;
+
+// The structure within r of q less its disappeared points (`gone`: those alone; null or
+// empty: none), from both indices' moments.
+Neighbourhood stillThere(const NearestNeighbourIndex& structure, const NearestNeighbourIndex* gone,
+                         const Eigen::Vector3f& q, double r) {
+  const Neighbourhood all = structure.neighbourhood(q, r);
+  if (!gone || gone->empty() || all.count == 0) return all;
+  const Neighbourhood left = gone->neighbourhood(q, r);
+  if (left.count == 0) return all;
+  Neighbourhood out;
+  if (left.count >= all.count) return out;
+  out.count = all.count - left.count;
+  const double na = static_cast<double>(all.count), ng = static_cast<double>(left.count);
+  const double n = static_cast<double>(out.count);
+  // Sums about the whole neighbourhood's centroid: the gone points' offsets are small there.
+  const Eigen::Vector3d dg = left.centroid - all.centroid;
+  const Eigen::Vector3d sum = -ng * dg;  // the whole's sum about its centroid is zero
+  const Eigen::Matrix3d outer = na * all.covariance - ng * (left.covariance + dg * dg.transpose());
+  const Eigen::Vector3d c = sum / n;
+  out.centroid = all.centroid + c;
+  out.covariance = outer / n - c * c.transpose();
+  return out;
+}
+
 // The structure's own surface around a point, against a segment's plane (test 3): a plane
 // parallel to it, another plane, or another plane that runs on into structure that
 // disappeared (what is left of a surface that moved: the old leaf about the new one's hinge).
@@ -94,36 +119,26 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double on_plane = params.hidden.plane_factor * ctx.tau;
   const double beside = params.hidden.parallel_factor * ctx.tau;
   const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
-  const auto isGone = [&](int j) {
-    return ctx.gone && static_cast<std::size_t>(j) < ctx.gone->size() && (*ctx.gone)[j];
-  };
+  NearestNeighbourIndex own_gone;
+  const NearestNeighbourIndex* gone_points = ctx.gone_points;
+  if (!gone_points && ctx.gone) {
+    own_gone = goneIndex(*ctx.structure, *ctx.gone);
+    gone_points = &own_gone;
+  }
   // The surface of the structure around point `id` against the segment's plane, measured
   // once per cell of tau (at the first point asked in it).
   std::map<CellKey, LocalSurface> surface_in;
+  std::vector<int> gone_ids;
   const auto surface = [&](int id) {
     const Eigen::Vector3f q = ctx.structure->point(id);
     const auto [it, added] = surface_in.emplace(cellOf(q, ctx.tau), LocalSurface::kUnknown);
     if (!added) return it->second;
-    // Of the structure that is still there: a disappeared leaf beside a wall is no part of
-    // the wall's surface.
-    std::vector<int> local_ids;
+    // Of the structure that is still there (all of it less what disappeared): a disappeared
+    // leaf beside a wall is no part of the wall's surface.
     const auto plane_within = [&](double r) {
-      local_ids.clear();
-      ctx.structure->withinIds(q, r, &local_ids);
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-      std::size_t count = 0;
-      for (int j : local_ids) {
-        if (isGone(j)) continue;
-        const Eigen::Vector3d x = ctx.structure->point(j).cast<double>();
-        sum += x;
-        outer += x * x.transpose();
-        ++count;
-      }
-      if (count < static_cast<std::size_t>(kMinLocalPoints)) return std::optional<Plane>();
-      const Eigen::Vector3d centroid = sum / static_cast<double>(count);
-      const Plane local = detail::planeOf(
-          centroid, outer / static_cast<double>(count) - centroid * centroid.transpose());
+      const Neighbourhood still = stillThere(*ctx.structure, gone_points, q, r);
+      if (still.count < static_cast<std::size_t>(kMinLocalPoints)) return std::optional<Plane>();
+      const Plane local = detail::planeOf(still.centroid, still.covariance);
       if (!(local.sd(0) < kMaxLocalFlatness * local.sd(1)) ||
           !(local.sd(1) >= kMinLocalWidth * ctx.tau))
         return std::optional<Plane>();
@@ -139,11 +154,12 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
     }
     // Left behind when its own plane runs on into disappeared structure within the ring.
     it->second = LocalSurface::kOther;
-    local_ids.clear();
-    ctx.structure->withinIds(q, radius, &local_ids);
-    for (int j : local_ids) {
-      if (isGone(j) && std::abs(local->normal.dot(ctx.structure->point(j).cast<double>() -
-                                                  local->centroid)) <= on_plane) {
+    if (!gone_points || gone_points->empty()) return it->second;
+    gone_ids.clear();
+    gone_points->withinIds(q, radius, &gone_ids);
+    for (int j : gone_ids) {
+      if (std::abs(local->normal.dot(gone_points->point(j).cast<double>() - local->centroid)) <=
+          on_plane) {
         it->second = LocalSurface::kLeftBehind;
         break;
       }
@@ -261,6 +277,20 @@ void measureOutline(const HiddenSegmentContext& ctx, const Indices& segment, con
 
 }  // namespace
 
+NearestNeighbourIndex goneIndex(const NearestNeighbourIndex& structure,
+                                const std::vector<std::uint8_t>& gone) {
+  Cloud points;
+  const std::size_t n = std::min(gone.size(), structure.size());
+  for (std::size_t j = 0; j < n; ++j) {
+    if (!gone[j]) continue;
+    const Eigen::Vector3f p = structure.point(static_cast<int>(j));
+    points.push_back(PointT(p.x(), p.y(), p.z()));
+  }
+  NearestNeighbourIndex index;
+  if (!points.empty()) index.build(points);
+  return index;
+}
+
 std::vector<RayCell> rayCells(const Cloud& cloud, const RangeImage& image) {
   std::vector<RayCell> out(cloud.size());
   if (image.empty()) return out;
@@ -310,7 +340,8 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
                                          const std::vector<Visibility>& hidden_vis,
                                          int num_gaussians, const NearestNeighbourIndex& structure,
                                          const std::vector<std::uint8_t>& gone, double tau,
-                                         const Params& params, const RangeImage* current_image) {
+                                         const Params& params, const RangeImage* current_image,
+                                         const NearestNeighbourIndex* gone_points) {
   std::vector<Indices> out;
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
   if (hidden.empty() || !sensorOriginKnown(current.sensor_origin_)) return out;
@@ -324,6 +355,12 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
   ctx.current = &current;
   ctx.structure = &structure;
   ctx.gone = &gone;
+  NearestNeighbourIndex own_gone;
+  if (!gone_points) {
+    own_gone = goneIndex(structure, gone);
+    gone_points = &own_gone;
+  }
+  ctx.gone_points = gone_points;
   ctx.current_image = &image;
   const std::vector<RayCell> rays = rayCells(current, image);
   ctx.rays = &rays;

@@ -113,13 +113,20 @@ struct HiddenSegmentContext {
   const Cloud* current = nullptr;
   const NearestNeighbourIndex* structure = nullptr;  ///< reference points, no ground
   const std::vector<std::uint8_t>* gone = nullptr;   ///< per structure point: disappeared
-  const RangeImage* current_image = nullptr;         ///< the current sweep from its origin
+  /// The disappeared structure points alone (goneIndex(*structure, *gone)), when the caller
+  /// keeps one; made per measurement otherwise.
+  const NearestNeighbourIndex* gone_points = nullptr;
+  const RangeImage* current_image = nullptr;  ///< the current sweep from its origin
   /// Per point of *current: its cell in current_image and range (col < 0: none). Filled
   /// by novelHiddenSegments; without it test 4 bins the points itself.
   const std::vector<RayCell>* rays = nullptr;
   double tau = 0.0;       ///< novelty distance [m]
   double margin_m = 0.0;  ///< visibility margin [m]
 };
+
+/// An index over the points of `structure` flagged in `gone` (empty when none is).
+NearestNeighbourIndex goneIndex(const NearestNeighbourIndex& structure,
+                                const std::vector<std::uint8_t>& gone);
 
 /// Measures `segment` (indices into *ctx.current; vis[k] the reference visibility of
 /// segment[k]).
@@ -139,14 +146,16 @@ bool hiddenSegmentIsNovel(const HiddenSegmentEvidence& e, double tau,
 /// reference's points without ground, `gone` flags its disappeared ones (same order). Needs
 /// the current sensor origin (current.sensor_origin_); without it returns nothing.
 /// `current_image`: the current sweep's range image from that origin with
-/// rangeImageConfig(params.visibility), when the caller has built it (built here otherwise).
+/// rangeImageConfig(params.visibility), when the caller has built it (built here otherwise);
+/// `gone_points`: goneIndex(structure, gone), likewise.
 std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hidden,
                                          const std::vector<int>& hidden_owner,
                                          const std::vector<Visibility>& hidden_vis,
                                          int num_gaussians, const NearestNeighbourIndex& structure,
                                          const std::vector<std::uint8_t>& gone, double tau,
                                          const Params& params,
-                                         const RangeImage* current_image = nullptr);
+                                         const RangeImage* current_image = nullptr,
+                                         const NearestNeighbourIndex* gone_points = nullptr);
 
 /// Continuations of novel segments into hidden space: a moved object that now reaches into
 /// the reference's shadow is one object, not part novel and part newly visible. The
