@@ -48,15 +48,6 @@ std::optional<Plane> continuationPlane(const HiddenSegmentContext& ctx, const In
   return fitPlane(cloud, on);
 }
 
-}  // namespace
-
-bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,
-                      const Indices& points, const SegmentationParams& params) {
-  return continuationPlane(ctx, segment, points, params).has_value();
-}
-
-namespace {
-
 // Past the cap of growIntoHidden, for a segment whose continuation goes on in its own surface
 // (`plane`: a leaf the map saw a part of): the candidates on that plane join too, breadth
 // first over links from the segment and its continuation `added`, except where the map's own
@@ -98,6 +89,11 @@ void growAlongPlane(const Cloud& current, const PointGrid& grid, const Points3d&
 }
 
 }  // namespace
+
+bool continuesSegment(const HiddenSegmentContext& ctx, const Indices& segment,
+                      const Indices& points, const SegmentationParams& params) {
+  return continuationPlane(ctx, segment, points, params).has_value();
+}
 
 void growIntoHidden(const Cloud& current, std::vector<Indices>* segments, const Indices& hidden,
                     double link_radius_m, double max_growth, const HiddenSegmentContext* revealed,
