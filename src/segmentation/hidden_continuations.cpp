@@ -67,7 +67,7 @@ void growAlongPlane(const Cloud& current, const PointGrid& grid, const Points3d&
     ids.clear();
     ctx.structure->withinIds(q.cast<float>(), kLocalPlaneFactor * ctx.tau, &ids);
     for (int id : ids) {
-      if (ctx.gone && static_cast<std::size_t>(id) < ctx.gone->size() && (*ctx.gone)[id]) continue;
+      if (ctx.goneAt(id)) continue;
       if (!off_plane(ctx.structure->point(id).cast<double>())) return true;
     }
     return false;

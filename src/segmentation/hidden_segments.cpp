@@ -176,7 +176,7 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
       if (id >= static_cast<int>(seen.size())) seen.resize(id + 1, 0);
       if (seen[id]) continue;
       seen[id] = 1;
-      if (ctx.gone && static_cast<std::size_t>(id) < ctx.gone->size() && (*ctx.gone)[id]) continue;
+      if (ctx.goneAt(id)) continue;
       ++e->ring;
       const Eigen::Vector3d q = ctx.structure->point(id).cast<double>();
       const double off = std::abs(plane.normal.dot(q - plane.centroid));

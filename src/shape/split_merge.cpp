@@ -241,6 +241,7 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points, const FitR
   // Scale of the data: point spacing (neighbourhoods) and sensor noise. A fit whose mean
   // radial error is below `exact` explains its points within the noise.
   const Scale scale = scaleOf(points);
+  stats_.plane_noise_m = stats_.noise_m = scale.plane_noise;
   // One part when the bounded fit explains the points nearly as an exact fit would (its
   // distance measured as the ranking fits' are): a free fit of a one-sided, noisy view often
   // cuts through its points, and splitting then cuts a single box or cylinder into pieces
@@ -256,7 +257,6 @@ std::vector<SuperquadricPart> SplitMerge::run(const Points3d& points, const FitR
   }
   const double radius = scale.radius;
   const PointGrid* grid = scale.grid.get();
-  stats_.plane_noise_m = stats_.noise_m = scale.plane_noise;
   // Not const: after splitting it is raised to the leaves' typical error (see below).
   double exact = std::max(params_.error_floor_m, params_.noise_factor * stats_.noise_m);
 

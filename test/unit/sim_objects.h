@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "novelty_detection/pipeline.h"
 #include "novelty_detection/preprocess/multiscale_tree.h"
 #include "novelty_detection/preprocess/range_noise.h"
 #include "novelty_detection/shape/fit_bounds.h"
@@ -13,6 +14,15 @@
 
 namespace novelty_detection {
 namespace sim_objects {
+
+/// The detector's result on a simulated pair with `params`, superquadrics off (the tests
+/// that call it measure labels).
+inline Result detectLabels(const sim::ScenePair& scene, Params params = Params()) {
+  params.superquadric.enabled = false;
+  Pipeline pipeline(params);
+  pipeline.setReference(scene.reference);
+  return pipeline.detect(scene.current);
+}
 
 /// The current sweep's points on changed object `id` (its ground-truth label).
 inline Points3d objectPoints(const sim::ScenePair& scene, int id) {

@@ -18,6 +18,7 @@
 #include "novelty_detection/pipeline.h"
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/sim/scene.h"
+#include "sim_objects.h"
 
 using namespace novelty_detection;
 
@@ -180,11 +181,7 @@ TEST(HiddenSegments, RevealedWallsStayNotNovel) {
   // the reference could not see, mostly occluded, around which little mapped wall continues:
   // it has no free edge in the current view. The moved box itself is novel.
   const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(26, 1));
-  Params params;
-  params.superquadric.enabled = false;
-  Pipeline pipeline(params);
-  pipeline.setReference(s.reference);
-  const Result r = pipeline.detect(s.current);
+  const Result r = sim_objects::detectLabels(s);
   long revealed = 0, revealed_novel = 0;
   for (std::size_t i = 0; i < r.labels.size(); ++i) {
     revealed += s.current_newly_visible[i];
@@ -199,6 +196,8 @@ TEST(HiddenSegments, RevealedWallsStayNotNovel) {
   EXPECT_GE(c.found, c.object / 2);
   // A removed box read backwards (the reference has it, the current sweep does not): the
   // wall and floor behind it are revealed, nothing is novel.
+  Params params;
+  params.superquadric.enabled = false;
   for (std::uint64_t seed : {3u, 7u}) {
     sim::SceneConfig config;
     config.seed = seed;
@@ -331,11 +330,7 @@ TEST(HiddenSegments, DoorLeafDoesNotGrowOverTheRecessItRevealed) {
     const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(index, seed));
     const int door = doorId(s);
     ASSERT_GT(door, 0);
-    Params params;
-    params.superquadric.enabled = false;
-    Pipeline pipeline(params);
-    pipeline.setReference(s.reference);
-    const Result r = pipeline.detect(s.current);
+    const Result r = sim_objects::detectLabels(s);
     long revealed = 0, leaf = 0, found = 0, best_segment = 0;
     std::map<int, long> on_leaf;
     for (std::size_t i = 0; i < r.labels.size(); ++i) {

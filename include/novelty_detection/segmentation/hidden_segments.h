@@ -122,6 +122,10 @@ struct HiddenSegmentContext {
   const std::vector<RayCell>* rays = nullptr;
   double tau = 0.0;       ///< novelty distance [m]
   double margin_m = 0.0;  ///< visibility margin [m]
+  /// Whether structure point `id` disappeared.
+  bool goneAt(int id) const {
+    return gone && id >= 0 && static_cast<std::size_t>(id) < gone->size() && (*gone)[id];
+  }
 };
 
 /// An index over the points of `structure` flagged in `gone` (empty when none is).
