@@ -125,6 +125,30 @@ void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& point
   for (char c : kept_values) stats->reused += c;
 }
 
+/// An index over cloud[valid] (ascending): an earlier run's index over a superset of `valid`
+/// at the same places restricted to them (linear; its queries are as exact), else built.
+std::shared_ptr<NearestNeighbourIndex> indexOf(const Cloud& cloud, const Indices& valid,
+                                               const PreprocessResult* earlier, int threads) {
+  const NearestNeighbourIndex* before = earlier ? earlier->distinct_index.get() : nullptr;
+  const Indices* points = earlier ? &earlier->statistics.points : nullptr;
+  if (before && points->size() == before->size() && points->size() >= valid.size()) {
+    std::vector<char> keep(points->size(), 0);
+    std::size_t matched = 0;
+    for (std::size_t e = 0; e < points->size() && matched < valid.size(); ++e) {
+      if ((*points)[e] != valid[matched]) continue;
+      const int i = valid[matched];
+      if (before->point(static_cast<int>(e)) != cloud[i].getVector3fMap()) break;
+      keep[e] = 1;
+      ++matched;
+    }
+    if (matched == valid.size())
+      return std::make_shared<NearestNeighbourIndex>(before->restricted(keep));
+  }
+  auto tree = std::make_shared<NearestNeighbourIndex>();
+  tree->build(cloud, valid, threads);
+  return tree;
+}
+
 /// Rusu et al. 2008 over `indices`; with `origin`, each mean distance is divided by the
 /// point's range (clamped to >= 1 m, where the noise rather than the angular step sets the
 /// spacing). `index`, when given, receives the index built over the finite points of
@@ -157,8 +181,7 @@ Indices statisticalOutliers(const Cloud& cloud, const Indices& indices, int k, d
 
   // Mean distance to the k nearest neighbours; outliers lie beyond mu + std_mul * sigma of
   // the distribution of those means.
-  auto tree = std::make_shared<NearestNeighbourIndex>();
-  tree->build(cloud, valid, threads);
+  std::shared_ptr<NearestNeighbourIndex> tree = indexOf(cloud, valid, earlier, threads);
   PreprocessResult::NeighbourStatistics own;
   PreprocessResult::NeighbourStatistics& s = stats ? *stats : own;
   neighbourStatistics(*tree, valid, k, threads, earlier ? &earlier->statistics : nullptr,
