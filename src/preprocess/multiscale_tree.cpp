@@ -51,15 +51,17 @@ struct Stats {
   Eigen::Vector3d major_axis;   ///< eigenvector of the largest eigenvalue
 };
 
-Stats statsOf(const Moments& m, const Eigen::Vector3d& origin) {
+/// The statistics of the points of `m`; the major axis only `with_axis` (a node that is
+/// split): the eigenvalues come out the same either way.
+Stats statsOf(const Moments& m, const Eigen::Vector3d& origin, bool with_axis) {
   Stats st;
   const Eigen::Vector3d mean = m.s / m.n;
   st.centroid = origin + mean;
   st.covariance = m.products() / m.n - mean * mean.transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  es.computeDirect(st.covariance);
+  es.computeDirect(st.covariance, with_axis ? Eigen::ComputeEigenvectors : Eigen::EigenvaluesOnly);
   st.eigenvalues = es.eigenvalues().cwiseMax(0.0);
-  st.major_axis = es.eigenvectors().col(2);
+  st.major_axis = with_axis ? Eigen::Vector3d(es.eigenvectors().col(2)) : Eigen::Vector3d::Zero();
   return st;
 }
 
@@ -106,14 +108,14 @@ void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
   using Node = MultiScaleTree::Node;
   constexpr int kMaxLeafSize = MultiScaleTree::kMaxLeafSize;
   for (std::size_t id = 0; id < t.nodes.size() && id < limit; ++id) {
-    const Stats st = statsOf(t.moments[id], t.origins[id]);
+    const int size = t.nodes[id].size();
+    const Stats st = statsOf(t.moments[id], t.origins[id], size > kMaxLeafSize);
     Node& node = t.nodes[id];
     node.centroid = st.centroid.cast<float>();
     node.covariance = st.covariance.cast<float>();
     node.sigma = static_cast<float>(surfaceVariation(st.eigenvalues));
     node.eigenvalues = st.eigenvalues.cast<float>();
 
-    const int size = node.size();
     if (size <= kMaxLeafSize) continue;
     // Duplicates only: splitting cannot separate them, so they form one leaf. The exact
     // check runs only when the spread is at rounding level of the moments.
