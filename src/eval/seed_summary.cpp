@@ -1,5 +1,7 @@
 #include "novelty_detection/eval/seed_summary.h"
 
+#include "novelty_detection/eval/shape_evaluation.h"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -111,6 +113,13 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
         it->axis_objects += axis_objects;
         if (axis_objects > 0)
           it->semi_axis_m += axis_objects * field<double>(k, "semi_axis_error_m", path);
+        // The well-seen figures (files written before they were kept hold none).
+        const int seen_axis = k.value("seen_semi_axis_objects", 0);
+        it->seen_axis_objects += seen_axis;
+        if (seen_axis > 0)
+          it->seen_semi_axis_m += seen_axis * field<double>(k, "seen_semi_axis_error_m", path);
+        it->seen_objects += k.value("seen_objects", 0);
+        it->seen_parts_3_to_7 += k.value("seen_parts_3_to_7", 0);
       }
     }
     out.objects_found += field<long>(summary, "objects_found", path);
@@ -120,6 +129,7 @@ SeedSummary summarizeSeeds(const std::vector<std::pair<std::string, std::string>
   for (SeedShapeSummary& k : out.shapes) {
     if (k.objects > 0) k.surface_m /= k.objects, k.floor_m /= k.objects;
     if (k.axis_objects > 0) k.semi_axis_m /= k.axis_objects;
+    if (k.seen_axis_objects > 0) k.seen_semi_axis_m /= k.seen_axis_objects;
   }
   // "all" last.
   std::stable_partition(rows.begin(), rows.end(), [](const auto& r) { return r.first != "all"; });
@@ -172,15 +182,23 @@ std::string seedSummaryMarkdown(const SeedSummary& summary) {
   if (!summary.shapes.empty()) {
     md +=
         "\n| object type | objects | surface error | floor | error / floor | semi-axis error "
-        "(one-part fits) |\n|---|---:|---:|---:|---:|---:|\n";
+        "(one-part fits) | seen with >= " +
+        std::to_string(kWellSeenPoints) + " points |\n|---|---:|---:|---:|---:|---:|---:|\n";
     for (const SeedShapeSummary& k : summary.shapes) {
       const auto mm = [](double m) { return fixed1(1000.0 * m) + " mm"; };
+      const auto axis = [&mm](int objects, double error_m) {
+        return objects > 0 ? mm(error_m) + " (" + std::to_string(objects) + ")" : std::string("-");
+      };
       md += "| " + k.type + " | " + std::to_string(k.objects) + " | " + mm(k.surface_m) + " | " +
             mm(k.floor_m) + " | " + (k.floor_m > 0.0 ? fixed2(k.surface_m / k.floor_m) : "-") +
-            " | " +
-            (k.axis_objects > 0 ? mm(k.semi_axis_m) + " (" + std::to_string(k.axis_objects) + ")"
-                                : std::string("-")) +
-            " |\n";
+            " | " + axis(k.axis_objects, k.semi_axis_m) + " | " +
+            axis(k.seen_axis_objects, k.seen_semi_axis_m) + " |\n";
+    }
+    for (const SeedShapeSummary& k : summary.shapes) {
+      if (k.type != "person" || k.seen_objects == 0) continue;
+      md += "\nPeople seen with at least " + std::to_string(kWellSeenPoints) +
+            " points: " + std::to_string(k.seen_parts_3_to_7) + " of " +
+            std::to_string(k.seen_objects) + " with 3 to 7 parts.\n";
     }
   }
   return md;
@@ -218,7 +236,11 @@ std::string seedSummaryJson(const SeedSummary& summary) {
                                    {"surface_error_m", k.surface_m},
                                    {"floor_m", k.floor_m},
                                    {"semi_axis_objects", k.axis_objects},
-                                   {"semi_axis_error_m", k.semi_axis_m}});
+                                   {"semi_axis_error_m", k.semi_axis_m},
+                                   {"seen_semi_axis_objects", k.seen_axis_objects},
+                                   {"seen_semi_axis_error_m", k.seen_semi_axis_m},
+                                   {"seen_objects", k.seen_objects},
+                                   {"seen_parts_3_to_7", k.seen_parts_3_to_7}});
   return j.dump(2) + "\n";
 }
 

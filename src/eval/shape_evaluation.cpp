@@ -147,6 +147,7 @@ std::vector<ObjectShapeError> scoreShapesByObject(const Cloud& cloud, const std:
     ObjectShapeError e;
     e.id = obj.id;
     e.type = shape->type;
+    e.points = obj.points;
     e.fit_m = meanDistance(cloud, truth, obj.id, fitted->second);
     e.floor_m = meanDistance(cloud, truth, obj.id, true_parts);
     if (!std::isfinite(e.fit_m) || !std::isfinite(e.floor_m)) continue;
@@ -185,6 +186,13 @@ std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeE
       ++k.axis_objects;
       k.semi_axis_error_m += o.semi_axis_error_m;
     }
+    if (o.points < kWellSeenPoints) continue;
+    ++k.seen_objects;
+    if (o.parts >= 3 && o.parts <= 7) ++k.seen_parts_3_to_7;
+    if (std::isfinite(o.semi_axis_error_m)) {
+      ++k.seen_axis_objects;
+      k.seen_semi_axis_error_m += o.semi_axis_error_m;
+    }
   }
   std::vector<KindShapeError> out;
   for (auto& [type, k] : kinds) {
@@ -192,6 +200,7 @@ std::vector<KindShapeError> summarizeShapesByKind(const std::vector<ObjectShapeE
     k.floor_m /= k.objects;
     k.parts_mean /= k.objects;
     if (k.axis_objects > 0) k.semi_axis_error_m /= k.axis_objects;
+    if (k.seen_axis_objects > 0) k.seen_semi_axis_error_m /= k.seen_axis_objects;
     out.push_back(k);
   }
   return out;

@@ -86,7 +86,7 @@ TEST(SeedSummary, MeansOverSeedsAndTheWorstSeed) {
 TEST(SeedSummary, ShapesArePooledOverTheSeeds) {
   const fs::path dir = tempDir();
   auto file = [&](const std::string& name, int objects, double surface, double floor,
-                  int axis_objects, double axis) {
+                  int axis_objects, double axis, const std::string& seen = "") {
     const fs::path p = dir / name;
     std::ofstream(p) << "{\"groups\": [{\"group\": \"all\", \"scenes\": 1, "
                         "\"success_rate\": 1, \"mean_f1\": 1}], \"summary\": "
@@ -94,19 +94,28 @@ TEST(SeedSummary, ShapesArePooledOverTheSeeds) {
                         "\"shapes_by_kind\": [{\"type\": \"box\", \"objects\": "
                      << objects << ", \"surface_error_m\": " << surface
                      << ", \"floor_m\": " << floor << ", \"semi_axis_objects\": " << axis_objects
-                     << ", \"semi_axis_error_m\": " << axis << "}]}}";
+                     << ", \"semi_axis_error_m\": " << axis << seen << "}]}}";
     return p.string();
   };
-  const SeedSummary s = summarizeSeeds({{"1", file("a.json", 3, 0.020, 0.010, 2, 0.030)},
-                                        {"2", file("b.json", 1, 0.040, 0.030, 0, 0.0)}});
+  // The first seed's file holds the well-seen figures, the second's (written before they
+  // were kept) none.
+  const SeedSummary s = summarizeSeeds(
+      {{"1", file("a.json", 3, 0.020, 0.010, 2, 0.030,
+                  ", \"seen_semi_axis_objects\": 1, \"seen_semi_axis_error_m\": 0.012, "
+                  "\"seen_objects\": 2, \"seen_parts_3_to_7\": 0")},
+       {"2", file("b.json", 1, 0.040, 0.030, 0, 0.0)}});
   ASSERT_EQ(s.shapes.size(), 1u);
   EXPECT_EQ(s.shapes[0].objects, 4);
   EXPECT_NEAR(s.shapes[0].surface_m, (3 * 0.020 + 0.040) / 4, 1e-12);
   EXPECT_NEAR(s.shapes[0].floor_m, (3 * 0.010 + 0.030) / 4, 1e-12);
   EXPECT_EQ(s.shapes[0].axis_objects, 2);
   EXPECT_NEAR(s.shapes[0].semi_axis_m, 0.030, 1e-12);
+  EXPECT_EQ(s.shapes[0].seen_axis_objects, 1);
+  EXPECT_NEAR(s.shapes[0].seen_semi_axis_m, 0.012, 1e-12);
+  EXPECT_EQ(s.shapes[0].seen_objects, 2);
   const std::string md = seedSummaryMarkdown(s);
-  EXPECT_NE(md.find("| box | 4 | 25.0 mm | 15.0 mm | 1.67 | 30.0 mm (2) |"), std::string::npos)
+  EXPECT_NE(md.find("| box | 4 | 25.0 mm | 15.0 mm | 1.67 | 30.0 mm (2) | 12.0 mm (1) |"),
+            std::string::npos)
       << md;
   EXPECT_NE(seedSummaryJson(s).find("\"semi_axis_objects\": 2"), std::string::npos);
   fs::remove_all(dir);

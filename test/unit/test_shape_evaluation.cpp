@@ -1,8 +1,10 @@
 // Shape error of fitted superquadrics against the true points of found objects.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 
 #include "novelty_detection/eval/shape_evaluation.h"
 #include "novelty_detection/shape/superquadric.h"
@@ -105,6 +107,8 @@ TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
   EXPECT_NEAR(errors[0].semi_axis_error_m, 0.25 / 3, 1e-12);
 
   EXPECT_EQ(errors[0].parts, 1);
+  EXPECT_EQ(errors[0].points,
+            static_cast<std::size_t>(std::count(truth.begin(), truth.end(), 1)));  // its points
   // The puck's long axes lie in the horizontal plane: 90 degrees from up.
   EXPECT_NEAR(errors[0].main_part_tilt_deg, 90.0, 1e-6);
 
@@ -156,4 +160,37 @@ TEST(ShapeEvaluation, PerKindErrorsBesideTheFloorAndSemiAxes) {
   std::ofstream(path) << R"({"objects": [{"id": 1, "type": "box", "parts": [{"a": [0, 1, 1]}]}]})";
   EXPECT_THROW(readTrueShapes(path), std::runtime_error);
   EXPECT_THROW(readTrueShapes(path + ".missing"), std::runtime_error);
+}
+
+// Objects seen with at least kWellSeenPoints points are counted apart as well as with the
+// rest: the semi-axis error of the well-seen ones, and how many people among them have 3 to 7
+// parts.
+TEST(ShapeEvaluation, WellSeenObjectsAreReportedApart) {
+  auto object = [](const std::string& type, std::size_t points, int parts, double axis) {
+    ObjectShapeError e;
+    e.type = type;
+    e.points = points;
+    e.parts = parts;
+    e.fit_m = e.floor_m = 0.01;
+    e.semi_axis_error_m = axis;
+    return e;
+  };
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const auto kinds = summarizeShapesByKind(
+      {object("box", kWellSeenPoints - 1, 1, 0.06), object("box", kWellSeenPoints, 1, 0.02),
+       object("box", 900, 2, none), object("person", 80, 4, none), object("person", 300, 2, none),
+       object("person", 500, 5, none)});
+  ASSERT_EQ(kinds.size(), 2u);
+  const KindShapeError& box = kinds[0];
+  EXPECT_EQ(box.type, "box");
+  EXPECT_EQ(box.axis_objects, 2);
+  EXPECT_NEAR(box.semi_axis_error_m, 0.04, 1e-12);
+  EXPECT_EQ(box.seen_objects, 2);
+  EXPECT_EQ(box.seen_axis_objects, 1);
+  EXPECT_NEAR(box.seen_semi_axis_error_m, 0.02, 1e-12);
+  const KindShapeError& person = kinds[1];
+  EXPECT_EQ(person.parts_3_to_7, 2);
+  EXPECT_EQ(person.seen_objects, 2);
+  EXPECT_EQ(person.seen_parts_3_to_7, 1);
+  EXPECT_EQ(person.seen_axis_objects, 0);
 }

@@ -43,6 +43,9 @@ struct SeedShapeSummary {
   double surface_m = 0.0, floor_m = 0.0;  ///< mean surface error, mean floor
   int axis_objects = 0;                   ///< one-part objects fitted with one part
   double semi_axis_m = 0.0;               ///< their mean semi-axis error
+  int seen_axis_objects = 0;              ///< of them, those seen with kWellSeenPoints or more
+  double seen_semi_axis_m = 0.0;          ///< their mean semi-axis error
+  int seen_objects = 0, seen_parts_3_to_7 = 0;  ///< objects so seen; of them with 3 to 7 parts
 };
 
 struct SeedSummary {

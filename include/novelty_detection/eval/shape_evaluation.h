@@ -29,12 +29,20 @@ struct TrueShape {
   std::vector<Superquadric> parts;  ///< one per part of the simulated object
 };
 
+/// Objects the sweep saw with at least this many points are reported apart too ("well
+/// seen"): with fewer the sweep holds a few scan lines of the object or a corner left visible
+/// by what stands in front of it, and its unseen extent (the depth of a box seen on one face,
+/// the width of a cylinder seen as a strip, a person's legs, trunk and head on separate lines)
+/// is not in the data.
+constexpr std::size_t kWellSeenPoints = 150;
+
 /// How well one found object's superquadrics describe it, beside what its data allow.
 struct ObjectShapeError {
   int id = 0;
   std::string type;
-  double fit_m = 0.0;    ///< mean over its true points of the distance to its segment's parts
-  double floor_m = 0.0;  ///< the same to its true parts: the sensor noise, the best a fit can do
+  std::size_t points = 0;  ///< its true points in the sweep
+  double fit_m = 0.0;      ///< mean over its true points of the distance to its segment's parts
+  double floor_m = 0.0;    ///< the same to its true parts: the sensor noise, the best a fit can do
   /// Single-part objects fitted with one part: mean over the three axes of |a_fit - a_true|,
   /// both sorted by size (a one-sided view that gets the hidden extent wrong shows here);
   /// NaN otherwise.
@@ -57,6 +65,10 @@ struct KindShapeError {
   int parts_3_to_7 = 0;     ///< objects fitted with 3 to 7 parts (a person's range)
   int main_part_within_20 =
       0;  ///< objects whose main body's part (main_part_tilt_deg) is within 20 deg of up
+  /// The same counts and the semi-axis error over the objects seen with at least
+  /// kWellSeenPoints points.
+  int seen_objects = 0, seen_axis_objects = 0, seen_parts_3_to_7 = 0;
+  double seen_semi_axis_error_m = 0.0;
   double ratio() const { return floor_m > 0.0 ? fit_m / floor_m : 0.0; }
 };
 
