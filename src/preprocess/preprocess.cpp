@@ -68,6 +68,16 @@ Indices removeDuplicates(const Cloud& cloud, const Indices& indices, Indices* du
 
 namespace {
 
+/// The position in `superset` of each of `subset`'s indices (both ascending), as far as they
+/// are found there in order: fewer than subset.size() when `subset` is no subset.
+std::vector<int> positionsIn(const Indices& superset, const Indices& subset) {
+  std::vector<int> out;
+  out.reserve(subset.size());
+  for (std::size_t e = 0; e < superset.size() && out.size() < subset.size(); ++e)
+    if (superset[e] == subset[out.size()]) out.push_back(static_cast<int>(e));
+  return out;
+}
+
 /// The mean distances to the k nearest other points of `tree`'s points (input indices
 /// `points`, ascending), into `stats`. With the statistics of an earlier run over a superset
 /// of `points` (`earlier`, its index `earlier_index`; the same points at the same places),
@@ -88,15 +98,15 @@ void neighbourStatistics(const NearestNeighbourIndex& tree, const Indices& point
                earlier->points.size() >= n && earlier->mean.size() == earlier->points.size() &&
                earlier_index->size() == earlier->points.size();
   if (reuse) {
-    before.reserve(n);
-    for (std::size_t e = 0; e < earlier->points.size(); ++e) {
-      if (before.size() < n && earlier->points[e] == points[before.size()]) {
-        before.push_back(static_cast<int>(e));
+    before = positionsIn(earlier->points, points);
+    reuse = before.size() == n;
+    for (std::size_t e = 0, j = 0; reuse && e < earlier->points.size(); ++e) {
+      if (j < n && before[j] == static_cast<int>(e)) {
+        ++j;
       } else {
         lost.push_back(earlier_index->point(static_cast<int>(e)));
       }
     }
-    reuse = before.size() == n;
     // The same points where they were: a run on another cloud shares nothing.
     for (std::size_t j = 0; j < n && reuse; ++j)
       reuse = tree.point(static_cast<int>(j)) == earlier_index->point(before[j]);
@@ -131,18 +141,15 @@ std::shared_ptr<NearestNeighbourIndex> indexOf(const Cloud& cloud, const Indices
                                                const PreprocessResult* earlier, int threads) {
   const NearestNeighbourIndex* before = earlier ? earlier->distinct_index.get() : nullptr;
   const Indices* points = earlier ? &earlier->statistics.points : nullptr;
-  if (before && points->size() == before->size() && points->size() >= valid.size()) {
+  if (before && points->size() == before->size()) {
+    const std::vector<int> at = positionsIn(*points, valid);
+    bool same = at.size() == valid.size();
     std::vector<char> keep(points->size(), 0);
-    std::size_t matched = 0;
-    for (std::size_t e = 0; e < points->size() && matched < valid.size(); ++e) {
-      if ((*points)[e] != valid[matched]) continue;
-      const int i = valid[matched];
-      if (before->point(static_cast<int>(e)) != cloud[i].getVector3fMap()) break;
-      keep[e] = 1;
-      ++matched;
+    for (std::size_t j = 0; same && j < at.size(); ++j) {
+      same = before->point(at[j]) == cloud[valid[j]].getVector3fMap();
+      keep[static_cast<std::size_t>(at[j])] = 1;
     }
-    if (matched == valid.size())
-      return std::make_shared<NearestNeighbourIndex>(before->restricted(keep));
+    if (same) return std::make_shared<NearestNeighbourIndex>(before->restricted(keep));
   }
   auto tree = std::make_shared<NearestNeighbourIndex>();
   tree->build(cloud, valid, threads);

@@ -79,6 +79,16 @@ CellKey cellOf(const Eigen::Vector3f& p, double size) {
 
 using Neighbourhood = NearestNeighbourIndex::Neighbourhood;
 
+// `given` (goneIndex(structure, gone) made by a caller), else that index made into `own`.
+const NearestNeighbourIndex* goneIndexOf(const NearestNeighbourIndex* given,
+                                         const NearestNeighbourIndex& structure,
+                                         const std::vector<std::uint8_t>& gone,
+                                         NearestNeighbourIndex* own) {
+  if (given) return given;
+  *own = goneIndex(structure, gone);
+  return own;
+}
+
 // The structure within r of q less its disappeared points (`gone`: those alone; null or
 // empty: none), from both indices' moments.
 Neighbourhood stillThere(const NearestNeighbourIndex& structure, const NearestNeighbourIndex* gone,
@@ -120,11 +130,8 @@ void measureRing(const HiddenSegmentContext& ctx, const Indices& segment, const 
   const double beside = params.hidden.parallel_factor * ctx.tau;
   const double min_cos = std::cos(kParallelDeg * M_PI / 180.0);
   NearestNeighbourIndex own_gone;
-  const NearestNeighbourIndex* gone_points = ctx.gone_points;
-  if (!gone_points && ctx.gone) {
-    own_gone = goneIndex(*ctx.structure, *ctx.gone);
-    gone_points = &own_gone;
-  }
+  const NearestNeighbourIndex* gone_points =
+      ctx.gone ? goneIndexOf(ctx.gone_points, *ctx.structure, *ctx.gone, &own_gone) : nullptr;
   // The surface of the structure around point `id` against the segment's plane, measured
   // once per cell of tau (at the first point asked in it).
   std::map<CellKey, LocalSurface> surface_in;
@@ -356,11 +363,7 @@ std::vector<Indices> novelHiddenSegments(const Cloud& current, const Indices& hi
   ctx.structure = &structure;
   ctx.gone = &gone;
   NearestNeighbourIndex own_gone;
-  if (!gone_points) {
-    own_gone = goneIndex(structure, gone);
-    gone_points = &own_gone;
-  }
-  ctx.gone_points = gone_points;
+  ctx.gone_points = goneIndexOf(gone_points, structure, gone, &own_gone);
   ctx.current_image = &image;
   const std::vector<RayCell> rays = rayCells(current, image);
   ctx.rays = &rays;
