@@ -69,8 +69,8 @@ void parallelFor(int n, int threads, F&& f) {
 }
 
 /// Point count from which a tree over the points (the k-d tree, the multi-scale tree) grows
-/// its root's two subtrees on two threads: below it, starting the second thread costs more
-/// than it saves.
+/// its subtrees on several threads: below it, starting the second thread costs more than it
+/// saves.
 constexpr int kMinPointsForParallelBuild = 20000;
 
 /// f(i) for i in [0, n) in blocks of `block` consecutive items, each block on one thread

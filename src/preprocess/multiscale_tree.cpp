@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -100,14 +101,15 @@ struct Growing {
   }
 };
 
-/// Splits the nodes of `t` in creation order, from the first, up to `limit` of them (the
-/// children are appended: processing them in that order is a BFS). A node's points stay
-/// within its range of pts and order: trees over disjoint ranges can grow at once.
+/// Splits the nodes of `t` in creation order, from the first, those above depth `depth_limit`
+/// (the children are appended: processing them in that order is a BFS, level by level). A
+/// node's points stay within its range of pts and order: trees over disjoint ranges can grow
+/// at once.
 void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
-          std::size_t limit = std::numeric_limits<std::size_t>::max()) {
+          int depth_limit = std::numeric_limits<int>::max()) {
   using Node = MultiScaleTree::Node;
   constexpr int kMaxLeafSize = MultiScaleTree::kMaxLeafSize;
-  for (std::size_t id = 0; id < t.nodes.size() && id < limit; ++id) {
+  for (std::size_t id = 0; id < t.nodes.size() && t.depth[id] < depth_limit; ++id) {
     const int size = t.nodes[id].size();
     const Stats st = statsOf(t.moments[id], t.origins[id], size > kMaxLeafSize);
     Node& node = t.nodes[id];
@@ -182,36 +184,40 @@ void grow(Growing& t, std::vector<Eigen::Vector3d>& pts, Indices& order,
   }
 }
 
-/// The root and its two subtrees grown apart (`part`, rooted at its children), numbered as
-/// one BFS from the root numbers them: level by level, the left subtree's nodes of a level
-/// before the right's (each subtree's own BFS keeps its levels in order).
-std::vector<MultiScaleTree::Node> mergeSubtrees(const MultiScaleTree::Node& root,
-                                                const Growing (&part)[2]) {
-  std::vector<MultiScaleTree::Node> nodes{root};
-  nodes.reserve(1 + part[0].nodes.size() + part[1].nodes.size());
-  std::vector<int> global[2];
-  for (int k = 0; k < 2; ++k) global[k].assign(part[k].nodes.size(), -1);
-  std::size_t next[2] = {0, 0};
-  for (int level = 0; next[0] < part[0].nodes.size() || next[1] < part[1].nodes.size(); ++level) {
-    for (int k = 0; k < 2; ++k) {
+/// The tree `top` grown down to a level whose nodes (the frontier, the last nodes of `top`
+/// from `first`) grew apart as the trees `part` (part[k] rooted at top.nodes[first + k]),
+/// numbered as one BFS from the root numbers them: level by level, and within a level the
+/// nodes under an earlier frontier node first (each part's own BFS keeps its levels in order).
+std::vector<MultiScaleTree::Node> mergeSubtrees(const Growing& top, std::size_t first,
+                                                const std::vector<Growing>& part) {
+  const std::size_t parts = part.size();
+  std::vector<MultiScaleTree::Node> nodes(top.nodes.begin(),
+                                          top.nodes.begin() + static_cast<std::ptrdiff_t>(first));
+  std::size_t total = first;
+  for (const Growing& g : part) total += g.nodes.size();
+  nodes.reserve(total);
+  std::vector<std::vector<int>> global(parts);
+  for (std::size_t k = 0; k < parts; ++k) global[k].assign(part[k].nodes.size(), -1);
+  std::vector<std::size_t> next(parts, 0);
+  for (int level = 0; nodes.size() < total; ++level) {
+    for (std::size_t k = 0; k < parts; ++k) {
       for (; next[k] < part[k].nodes.size() && part[k].depth[next[k]] == level; ++next[k]) {
         global[k][next[k]] = static_cast<int>(nodes.size());
         nodes.push_back(part[k].nodes[next[k]]);
       }
     }
   }
-  for (int k = 0; k < 2; ++k) {
+  for (std::size_t k = 0; k < parts; ++k) {
     for (std::size_t j = 0; j < part[k].nodes.size(); ++j) {
       MultiScaleTree::Node& node = nodes[static_cast<std::size_t>(global[k][j])];
-      node.parent = node.parent < 0 ? 0 : global[k][static_cast<std::size_t>(node.parent)];
+      node.parent = node.parent < 0 ? top.nodes[first + k].parent
+                                    : global[k][static_cast<std::size_t>(node.parent)];
       if (node.left >= 0) {
         node.left = global[k][static_cast<std::size_t>(node.left)];
         node.right = global[k][static_cast<std::size_t>(node.right)];
       }
     }
   }
-  nodes[0].left = global[0][0];
-  nodes[0].right = global[1][0];
   return nodes;
 }
 
@@ -258,11 +264,13 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
     return static_cast<std::size_t>(2 * points / std::max(1, kMaxLeafSize / 2) + 1);
   };
   const bool parallel = threads > 1 && n >= detail::kMinPointsForParallelBuild;
+  // Levels split before the threads take the subtrees below them (up to 2^kParallelDepth).
+  constexpr int kParallelDepth = 3;
   Growing whole;
   {
-    // The parallel build keeps only the root and its children here; each subtree holds its
+    // The parallel build keeps only the top levels here; each subtree below them holds its
     // own nodes while it grows.
-    whole.reserve(parallel ? 3 : capacity(n));
+    whole.reserve(parallel ? (2u << kParallelDepth) : capacity(n));
     Node root;
     root.begin = 0;
     root.end = n;
@@ -272,23 +280,31 @@ void MultiScaleTree::build(const Cloud& cloud, const Indices& indices, int threa
     whole.addRoot(root, m, o);
   }
   if (parallel) {
-    // The root's split here, its two subtrees on two threads, then numbered as the serial
-    // BFS numbers them: level by level, the left subtree's nodes of a level before the right's.
-    grow(whole, pts, order_, 1);
-    if (whole.nodes.size() == 3) {
-      Growing part[2];
-      for (int k = 0; k < 2; ++k) {
-        part[k].reserve(capacity(whole.nodes[1 + k].size()));
-        part[k].addRoot(whole.nodes[1 + k], whole.moments[1 + k], whole.origins[1 + k]);
-      }
-      detail::parallelFor(2, threads, [&](int k) {
-        grow(part[k], pts, order_);
-        // The moments served the splits only: freed before the nodes are copied.
-        std::vector<Moments>().swap(part[k].moments);
-        std::vector<Eigen::Vector3d>().swap(part[k].origins);
-      });
-      whole.nodes = mergeSubtrees(whole.nodes[0], part);
+    // The top levels here, the subtrees below them on the threads (largest first: a split at
+    // the centroid leaves siblings of unequal size), then numbered as the serial BFS numbers
+    // them.
+    grow(whole, pts, order_, kParallelDepth);
+    std::size_t first = whole.nodes.size();
+    while (first > 0 && whole.depth[first - 1] == kParallelDepth) --first;
+    std::vector<Growing> part(whole.nodes.size() - first);
+    std::vector<int> largest(part.size());
+    for (std::size_t k = 0; k < part.size(); ++k) {
+      const std::size_t id = first + k;
+      part[k].reserve(capacity(whole.nodes[id].size()));
+      part[k].addRoot(whole.nodes[id], whole.moments[id], whole.origins[id]);
+      largest[k] = static_cast<int>(k);
     }
+    std::stable_sort(largest.begin(), largest.end(), [&](int a, int b) {
+      return whole.nodes[first + a].size() > whole.nodes[first + b].size();
+    });
+    detail::parallelFor(static_cast<int>(part.size()), threads, [&](int j) {
+      Growing& g = part[static_cast<std::size_t>(largest[j])];
+      grow(g, pts, order_);
+      // The moments served the splits only: freed before the nodes are copied.
+      std::vector<Moments>().swap(g.moments);
+      std::vector<Eigen::Vector3d>().swap(g.origins);
+    });
+    if (!part.empty()) whole.nodes = mergeSubtrees(whole, first, part);
   } else {
     grow(whole, pts, order_);
   }

@@ -2,6 +2,7 @@
 // variations, cuts that partition the input, monotone scales, degenerate inputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -198,7 +199,9 @@ TEST(MultiScaleTree, RightAngleEdgeIsSplitIntoItsFaces) {
   for (int i = 0; i < 3000; ++i) {
     const bool on_x0 = i < 1500;
     const float from_edge = on_x0 ? cloud[i].y : cloud[i].x;
-    if (from_edge > 0.03f) EXPECT_EQ(cut.cluster_of[i] == face_of_x0, on_x0) << "point " << i;
+    if (from_edge > 0.03f) {
+      EXPECT_EQ(cut.cluster_of[i] == face_of_x0, on_x0) << "point " << i;
+    }
   }
 }
 
@@ -282,7 +285,9 @@ TEST(MultiScaleTree, DegenerateGeometry) {
   tree.build(line);
   for (const auto& n : tree.nodes()) {
     EXPECT_EQ(n.sigma, 0.f);
-    if (n.isLeaf()) EXPECT_LE(n.size(), Tree::kMaxLeafSize);
+    if (n.isLeaf()) {
+      EXPECT_LE(n.size(), Tree::kMaxLeafSize);
+    }
   }
   // Mixed duplicates and distinct points terminate too.
   nd::Cloud mixed = dup;
@@ -330,13 +335,13 @@ TEST(MultiScaleTree, NoiseEstimateAndNoiseAwareCut) {
   EXPECT_THROW(tree.cut(8, 0.01, -1.0), std::invalid_argument);
 }
 
-// On two threads the root's two subtrees grow at once and are numbered as the serial build
-// numbers them: the same nodes (ranges, links, statistics), the same order, the same cuts.
-TEST(MultiScaleTree, TwoThreadsBuildTheSameTree) {
-  nd::Cloud cloud = corner(12000, 21);
-  for (const auto& p : plane(8000, 22, Eigen::Vector3f(2.f, 0.f, 0.5f))) cloud.push_back(p);
-  cloud.push_back(nd::PointT(std::nanf(""), 0.f, 0.f));
-  for (int k = 0; k < 20; ++k) cloud.push_back(cloud[static_cast<std::size_t>(k)]);  // repeats
+// On two threads the subtrees below the top levels grow at once, largest first, and are
+// numbered as the serial build numbers them: the same nodes (ranges, links, statistics), the
+// same order, the same cuts. Also when a node above those levels is a leaf (a pile of
+// duplicates that no split separates).
+namespace {
+
+void expectSameTree(const nd::Cloud& cloud) {
   Tree serial, parallel;
   serial.build(cloud, {}, 1);
   parallel.build(cloud, {}, 2);
@@ -356,4 +361,28 @@ TEST(MultiScaleTree, TwoThreadsBuildTheSameTree) {
   }
   EXPECT_EQ(serial.noiseVariance(), parallel.noiseVariance());
   EXPECT_EQ(serial.cut(64, 0.05).nodes, parallel.cut(64, 0.05).nodes);
+}
+
+}  // namespace
+
+TEST(MultiScaleTree, TwoThreadsBuildTheSameTree) {
+  nd::Cloud cloud = corner(12000, 21);
+  for (const auto& p : plane(8000, 22, Eigen::Vector3f(2.f, 0.f, 0.5f))) cloud.push_back(p);
+  cloud.push_back(nd::PointT(std::nanf(""), 0.f, 0.f));
+  for (int k = 0; k < 20; ++k) cloud.push_back(cloud[static_cast<std::size_t>(k)]);  // repeats
+  expectSameTree(cloud);
+
+  // Most points on one spot far to one side: the root's split leaves the pile as a leaf
+  // next to the root, above the levels the threads start from.
+  nd::Cloud piled = plane(6000, 23);
+  for (int k = 0; k < 18000; ++k) piled.push_back(nd::PointT(5.f, 5.f, 5.f));
+  Tree tree;
+  tree.build(piled, {}, 1);
+  const auto& nodes = tree.nodes();
+  const auto pile = std::find_if(nodes.begin(), nodes.end(), [](const Tree::Node& n) {
+    return n.isLeaf() && n.size() == 18000;
+  });
+  ASSERT_NE(pile, nodes.end());
+  EXPECT_LE(pile - nodes.begin(), 6);  // within the top three levels
+  expectSameTree(piled);
 }

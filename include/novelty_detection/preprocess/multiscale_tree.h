@@ -44,8 +44,9 @@ class MultiScaleTree {
   /// O(N log N). Non-finite points named in `indices` are left out (cluster -1 in every
   /// cut); an index outside the cloud or given twice throws std::invalid_argument. Clusters
   /// without spread (duplicate points) become leaves of any size. An empty selection gives
-  /// an empty tree whose cuts are empty. The root's two subtrees grow on two threads when
-  /// `threads` > 1 (large clouds only); the tree is the same.
+  /// an empty tree whose cuts are empty. With `threads` > 1 (large clouds only) the
+  /// subtrees below the top three levels grow on the threads, largest first; the tree is the
+  /// same.
   void build(const Cloud& cloud, const Indices& indices = {}, int threads = 1);
   /// The scale (n_max, sigma_max): O(number of clusters + cloud size), no rebuild. Throws
   /// std::invalid_argument for n_max < 1 or sigma_max < 0 (or NaN).
