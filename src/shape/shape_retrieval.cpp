@@ -1,5 +1,7 @@
 #include "novelty_detection/shape/shape_retrieval.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -21,6 +23,29 @@ constexpr int kMinStandingPartPoints = 12;
 // plane, less the noise, exceeds this share of their spread along it (people: 0.25 and more;
 // door leaves, however noisy or partly seen, mostly below 0.2).
 constexpr double kCompositeDepth = 0.2;
+// A fit is upright when its z axis is this close to up (cosine; upright fits hold it exactly).
+constexpr double kUprightCos = 0.999;
+
+/// An upright fit (its z axis along up) whose horizontal section lies between an ellipse and a
+/// diamond (e2 > 1) is also where a fit of a rectangular section ends that turned the wrong
+/// way from its start: a diamond is a square turned by 45 deg, and LM does not cross the
+/// rounder sections between (LM fits of superquadrics have local minima in the orientation;
+/// Solina & Bajcsy, PAMI 1990). So the fit is refined again from the rectangle that
+/// diamond would be (the model turned by 45 deg about up, e2 mirrored about 1, 2 - e2 but at
+/// least epsilon_min, both horizontal semi-axes their mean over sqrt 2: a diamond's
+/// half-diagonal is the square's half-side times sqrt 2), on the same points by the same
+/// fitter, and the lower objective wins.
+FitResult withTurnedSection(const SuperquadricFitter& fitter, const Points3d& points,
+                            const FitResult& fit, const Eigen::Vector3d& up, double epsilon_min) {
+  const Eigen::Matrix3d r = fit.sq.rotation();
+  if (!(fit.sq.e2 > 1.0) || std::abs(r.col(2).dot(up)) < kUprightCos) return fit;
+  Superquadric turned = fit.sq;
+  turned.euler = eulerZyzFromRotation(Eigen::AngleAxisd(M_PI / 4.0, up) * r);
+  turned.e2 = std::max(epsilon_min, 2.0 - fit.sq.e2);
+  turned.a[0] = turned.a[1] = 0.5 * (fit.sq.a[0] + fit.sq.a[1]) / std::sqrt(2.0);
+  const FitResult other = fitter.refine(points, turned, -1, true, FitMeasures::kNone);
+  return other.cost < fit.cost ? other : fit;
+}
 
 /// The parts of a tall object standing on the floor, cut where its horizontal section steps
 /// (standing_parts.h), each with a first fit; empty when it is not one (no floor, not
@@ -147,6 +172,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     Superquadric model = start.sq;
     const Points3d seen = with_hidden_side(sub, 0.0, &model, false, round_section);
     FitResult fit = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
+    fit = withTurnedSection(bounded, seen, fit, bounds->up, params_.epsilon_min);
     // A round section's silhouette ends lie in front of its centre: mirror again knowing
     // how round the first fit came out.
     const double roundness = bounds->has_floor ? horizontalRoundness(fit.sq, bounds->up) : 0.0;

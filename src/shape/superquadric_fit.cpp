@@ -54,13 +54,14 @@ void addBounds(const FitBounds& bounds, const Points3d& points, bool standing,
 /// The fit on Ceres (per-point residual blocks, with a robust loss or automatic
 /// derivatives): `per_point` under the loss, `costs` without; parameters x in the blocks
 /// a, e, w, t within [lo, hi], the fixed rotation components held by a subset manifold.
-/// Returns Ceres' iteration count.
+/// Returns Ceres' iteration count; `cost` receives the final cost.
 int solveWithCeres(const std::vector<std::unique_ptr<ceres::CostFunction>>& per_point,
                    const std::vector<std::unique_ptr<ceres::CostFunction>>& costs,
                    const std::string& robust_loss, double loss_scale,
                    const detail::LeastSquaresOptions& ls, const detail::FitVector& lo,
                    const detail::FitVector& hi,
-                   const std::array<bool, detail::kFitParameters>& fixed, detail::FitVector* x) {
+                   const std::array<bool, detail::kFitParameters>& fixed, detail::FitVector* x,
+                   double* cost) {
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
@@ -102,6 +103,7 @@ int solveWithCeres(const std::vector<std::unique_ptr<ceres::CostFunction>>& per_
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
+  *cost = summary.final_cost;
   return static_cast<int>(summary.iterations.size());
 }
 
@@ -283,6 +285,7 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   // search and take the projected step as it is.
   options.line_search = line_search;
   int solved_iterations = 0;
+  double cost = std::numeric_limits<double>::quiet_NaN();
   if (options.max_iterations > 0) {
     if (per_point.empty()) {
       // The small bounded LM (least_squares.h): the same method as Ceres' without its
@@ -294,11 +297,12 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
       if (detail::solveBounded(views, &solved, lo, hi, fixed, options, &summary)) {
         x = solved;
         solved_iterations = summary.iterations + 1;  // counted as Ceres does, with iteration 0
+        cost = summary.final_cost;
       }
     } else {
       const double loss_scale = params_.robust_loss_scale * std::sqrt(x[0] * x[1] * x[2]);
       solved_iterations = solveWithCeres(per_point, costs, params_.robust_loss, loss_scale, options,
-                                         lo, hi, fixed, &x);
+                                         lo, hi, fixed, &x, &cost);
     }
   }
   const double* a = x.data();
@@ -325,6 +329,7 @@ FitResult SuperquadricFitter::solve(const Points3d& points, const Superquadric& 
   }
   sq.points = static_cast<int>(points.size());
   result.iterations = solved_iterations;
+  result.cost = cost;
   if (measures == FitMeasures::kAll || measures == FitMeasures::kRadial) {
     result.mean_radial_distance = meanRadialDistance(sq, points);
   }

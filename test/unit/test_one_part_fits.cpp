@@ -141,3 +141,42 @@ TEST(OnePartFits, TheExactLevelIsTheNoiseInTheResiduals) {
     EXPECT_EQ(split_merge.run(points, &whole).size(), 1u) << "sigma " << sigma;
   }
 }
+
+// Boxes standing on the floor, seen from anywhere (seeds 1-24, three boxes a scene, those
+// seen with at least 150 points): an upright fit that ends with a section between an ellipse
+// and a diamond has turned the wrong way from its start; it is refined again from the
+// rectangle that diamond would be, and the lower objective wins. Measured: 15 one-part boxes,
+// semi-axis error at most 30.5 mm, mean 16.7 mm; without the second start seed 17's box is
+// fitted as a turned diamond 105 mm off (mean 21.6 mm).
+TEST(OnePartFits, StandingBoxesAreNotFittedAsTurnedDiamonds) {
+  const SuperquadricParams params;
+  int one_part = 0;
+  double semi_axis = 0.0, worst = 0.0;
+  for (std::uint64_t seed = 1; seed <= 24; ++seed) {
+    sim::SceneConfig cfg;
+    cfg.seed = seed;
+    cfg.layout = seed % 2 ? sim::Layout::kCorridor : sim::Layout::kOffice;
+    cfg.novelty_kinds = {sim::NoveltyKind::kBox};
+    cfg.novelty_count = 3;
+    const sim::ScenePair scene = sim::generateScenePair(cfg);
+    const RangeNoise noise = sim_objects::sweepNoise(scene);
+    for (const auto& object : scene.objects) {
+      const Points3d fine = sim_objects::objectPoints(scene, object.id);
+      if (fine.size() < 150) continue;
+      const auto bounded = sim_objects::boundsOf(scene, cfg, object.id, fine, params, &noise);
+      const auto sqs = ShapeRetrieval(params).recover(fine, sim_objects::coarsePoints(fine),
+                                                      object.id, &bounded->bounds);
+      if (sqs.size() != 1) continue;
+      ++one_part;
+      const double error = semiAxisError(sqs[0], object.parts.front().sq);
+      semi_axis += error;
+      worst = std::max(worst, error);
+      EXPECT_LT(error, 0.04) << "seed " << seed << " box " << object.id << ": " << fine.size()
+                             << " points, e2 " << sqs[0].e2;
+    }
+  }
+  std::printf("boxes with one part %d, semi-axis error mean %.1f mm, worst %.1f mm\n", one_part,
+              1000.0 * semi_axis / std::max(1, one_part), 1000.0 * worst);
+  ASSERT_GE(one_part, 12);
+  EXPECT_LT(semi_axis / one_part, 0.02);
+}

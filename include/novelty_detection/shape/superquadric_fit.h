@@ -2,6 +2,7 @@
 // (Sec. V-B, eq. 3), started from the central moments of the points. ROS-free.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -32,6 +33,9 @@ struct FitResult {
   double mean_distance = 0.0;         ///< [m] first-order Euclidean (meanSurfaceDistance())
   double residual = 0.0;              ///< mean of eq. 3's squared terms over the points
   int iterations = 0;                 ///< LM iterations of the final run
+  /// The objective at the result (1/2 the sum of squared residuals, a bounded fit's terms
+  /// included): fits of the same points by the same fitter compare by it; NaN without a solve.
+  double cost = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Which quality measures a fit computes over its points (each is a pass of logs and exps
