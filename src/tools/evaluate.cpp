@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -215,6 +216,20 @@ nlohmann::json shapeKindJson(const std::vector<KindShapeError>& kinds) {
   return j;
 }
 
+/// One found object's shape figures (a scene's "shapes" in the suite's JSON); a figure that
+/// does not apply (the semi-axis error of a composite or of a fit with several parts) is null.
+nlohmann::json shapeObjectJson(const ObjectShapeError& e) {
+  const auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nullptr; };
+  return {{"id", e.id},
+          {"type", e.type},
+          {"points", e.points},
+          {"parts", e.parts},
+          {"surface_error_m", e.fit_m},
+          {"floor_m", e.floor_m},
+          {"semi_axis_error_m", number(e.semi_axis_error_m)},
+          {"main_part_tilt_deg", number(e.main_part_tilt_deg)}};
+}
+
 int evaluateSuite(const Options& o) {
   if (!fs::is_directory(o.suite)) throw std::runtime_error(o.suite + ": not a directory");
   std::vector<std::string> names;
@@ -236,6 +251,7 @@ int evaluateSuite(const Options& o) {
   for (const auto& name : names) {
     SuiteEntry e;
     e.name = name;
+    nlohmann::json scene_shapes = nlohmann::json::array();
     const std::vector<int> gt = readLabelFile((fs::path(o.suite) / name / "gt_labels.txt"));
     const fs::path labels_path = fs::path(o.results) / name / "labels.txt";
     if (!fs::exists(labels_path)) {
@@ -256,9 +272,11 @@ int evaluateSuite(const Options& o) {
           if (shape.objects > 0) shape_json[name] = shape.mean_surface_distance_m;
           const fs::path scene_json = fs::path(o.suite) / name / "scene.json";
           if (fs::exists(scene_json)) {
-            for (const auto& err :
-                 scoreShapesByObject(cur, gt, e.score, fitted, readTrueShapes(scene_json.string())))
+            for (const auto& err : scoreShapesByObject(cur, gt, e.score, fitted,
+                                                       readTrueShapes(scene_json.string()))) {
               shape_errors.push_back(err);
+              scene_shapes.push_back(shapeObjectJson(err));
+            }
           }
         }
       } catch (const std::exception& ex) {
@@ -272,6 +290,7 @@ int evaluateSuite(const Options& o) {
     j["scene"] = name;
     j["has_result"] = e.has_result;
     j["note"] = e.note;
+    j["shapes"] = scene_shapes;
     const ViewpointSceneScore v =
         scoreViewpointScene(name, (fs::path(o.suite) / name).string(),
                             (fs::path(o.results) / name).string(), e.score, e.has_result);

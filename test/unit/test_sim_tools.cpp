@@ -1,10 +1,14 @@
 // simulate_scans and evaluate end to end: files written, consistent, scored.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "novelty_detection/eval/evaluation.h"
 #include "novelty_detection/io/cloud_io.h"
@@ -77,4 +81,63 @@ TEST(SimTools, SuiteModeWritesScenesAndEvaluateCountsMissingResults) {
   EXPECT_NE(table.find("scene_001,0,"), std::string::npos);
   EXPECT_NE(table.find("missing labels.txt"), std::string::npos);
   EXPECT_NE(slurp(root / "t.md").find("success rate 50.0 %"), std::string::npos);
+}
+
+// The suite's JSON lists each found object's shape figures in its scene (id, kind, points,
+// parts, surface error beside the floor, semi-axis error of a single shape fitted with one
+// part, else null), and the per-kind means are their means.
+TEST(SimTools, EvaluateListsEachFoundObjectsShape) {
+  const fs::path root = fs::path(::testing::TempDir()) / "novelty_sim_shapes";
+  fs::remove_all(root);
+  const fs::path suite = root / "suite", results = root / "results";
+  ASSERT_EQ(run(kBin + "/simulate_scans --out " + suite.string() + " --suite 2 --no-bag --seed 4"),
+            0);
+  for (const char* scene : {"scene_000", "scene_001"}) {
+    const fs::path in = suite / scene, out = results / scene;
+    ASSERT_EQ(run(kBin + "/novelty_detect --reference " + (in / "ref.pcd").string() +
+                  " --current " + (in / "cur.pcd").string() + " --out " + out.string()),
+              0)
+        << scene;
+  }
+  const fs::path json = root / "scores.json";
+  ASSERT_EQ(run(kBin + "/evaluate --suite " + suite.string() + " --results " + results.string() +
+                " --json " + json.string()),
+            0);
+  const auto scores = nlohmann::json::parse(slurp(json));
+  std::map<std::string, std::pair<int, double>> axis;  // per kind: one-part fits, summed error
+  int listed = 0;
+  for (const auto& scene : scores.at("scenes")) {
+    std::map<int, bool> found;
+    for (const auto& o : scene.at("objects")) found[o.at("id").get<int>()] = o.at("found");
+    for (const auto& e : scene.at("shapes")) {
+      ++listed;
+      EXPECT_TRUE(found.at(e.at("id").get<int>())) << "only found objects have shapes";
+      EXPECT_GE(e.at("parts").get<int>(), 1);
+      EXPECT_GT(e.at("points").get<int>(), 0);
+      EXPECT_GT(e.at("surface_error_m").get<double>(), 0.0);
+      EXPECT_LT(e.at("surface_error_m").get<double>(), 0.5);
+      const auto& semi = e.at("semi_axis_error_m");
+      const std::string type = e.at("type");
+      const bool single = type == "box" || type == "cylinder" || type == "sphere" ||
+                          type == "superellipsoid" || type == "door" || type == "moved_object";
+      if (!single || e.at("parts").get<int>() != 1) {
+        EXPECT_TRUE(semi.is_null()) << type;
+      } else {
+        ASSERT_TRUE(semi.is_number()) << type;
+        EXPECT_GE(semi.get<double>(), 0.0);
+        axis[type].first += 1;
+        axis[type].second += semi.get<double>();
+      }
+    }
+  }
+  EXPECT_GE(listed, 2);
+  for (const auto& k : scores.at("summary").at("shapes_by_kind")) {
+    const auto it = axis.find(k.at("type").get<std::string>());
+    const int n = it == axis.end() ? 0 : it->second.first;
+    EXPECT_EQ(k.at("semi_axis_objects").get<int>(), n) << k.at("type");
+    if (n > 0) {
+      EXPECT_NEAR(k.at("semi_axis_error_m").get<double>(), it->second.second / n, 1e-9)
+          << k.at("type");
+    }
+  }
 }
