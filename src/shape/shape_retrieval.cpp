@@ -23,8 +23,6 @@ constexpr int kMinStandingPartPoints = 12;
 // plane, less the noise, exceeds this share of their spread along it (people: 0.25 and more;
 // door leaves, however noisy or partly seen, mostly below 0.2).
 constexpr double kCompositeDepth = 0.2;
-// A fit is upright when its z axis is this close to up (cosine; upright fits hold it exactly).
-constexpr double kUprightCos = 0.999;
 
 /// An upright fit (its z axis along up) whose horizontal section lies between an ellipse and a
 /// diamond (e2 > 1) is also where a fit of a rectangular section ends that turned the wrong
@@ -38,7 +36,7 @@ constexpr double kUprightCos = 0.999;
 FitResult withTurnedSection(const SuperquadricFitter& fitter, const Points3d& points,
                             const FitResult& fit, const Eigen::Vector3d& up, double epsilon_min) {
   const Eigen::Matrix3d r = fit.sq.rotation();
-  if (!(fit.sq.e2 > 1.0) || std::abs(r.col(2).dot(up)) < kUprightCos) return fit;
+  if (!(fit.sq.e2 > 1.0) || uprightAxis(r, up) != 2) return fit;
   Superquadric turned = fit.sq;
   turned.euler = eulerZyzFromRotation(Eigen::AngleAxisd(M_PI / 4.0, up) * r);
   turned.e2 = std::max(epsilon_min, 2.0 - fit.sq.e2);
