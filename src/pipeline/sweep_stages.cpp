@@ -75,7 +75,8 @@ bool markSelfReturns(Detection& d) {
       [&reference_points](const Eigen::Vector3f& p, double r) {
         return reference_points.within(p, r);
       },
-      current_within, d.params.compute.resolved(), &d.ref.self_returns);
+      current_within, d.params.compute.resolved(), &d.ref.self_returns,
+      d.params.segmentation.min_segment_points);
   if (!self.checked) return false;
   d.self_returns = self.current_count;
   if (self.reference_count > 0) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -142,6 +143,61 @@ void markMatches(const Points& a, const std::vector<int>& a_index, const detail:
   });
 }
 
+/// How far apart, in match tolerances, two points of one surface may lie and be linked when a
+/// group of matches is followed along the novel structure it belongs to (releaseReachingOut).
+constexpr double kLinkTolerances = 2.0;
+
+/// Releases the marks of matches that are part of novel structure reaching out of the
+/// robot's range. The robot lies within max_range of its sensor. A changed surface near the
+/// sensor that, in the sensor's frame, happens to lie where the other sweep had a surface (a
+/// door leaf swung by about the robot's own turn and step) is matched along the strip where
+/// the two coincide, and runs on as novel structure past it. Each group of marked points of
+/// `a` (sensor frame, own tree `own`, a_index into `cloud`) that the map does not explain
+/// within the novelty distance, followed through the near points the map does not explain
+/// either (linked within `link`), that reaches the rim of the range (within `link` of
+/// max_range) at a point left unmarked is no part of the robot: its marks go, when it holds
+/// at least `min_matched` marked points (fewer are no strip of a surface to tell from a part
+/// of the robot the match missed in part).
+template <class MapWithin>
+void releaseReachingOut(const Points& a, const std::vector<int>& a_index,
+                        const detail::KnnTree& own, double novelty_distance, double link,
+                        double max_range, int min_matched, const Cloud& cloud,
+                        const MapWithin& within, std::vector<std::uint8_t>* mask) {
+  const int n = static_cast<int>(a.size());
+  std::vector<std::int8_t> novel(static_cast<std::size_t>(n), -1);  // -1: not asked yet
+  const auto isNovel = [&](int i) {
+    std::int8_t& v = novel[static_cast<std::size_t>(i)];
+    if (v < 0) v = within(cloud[a_index[i]].getVector3fMap(), novelty_distance) ? 0 : 1;
+    return v == 1;
+  };
+  const auto marked = [&](int i) { return (*mask)[a_index[i]] != 0; };
+  std::vector<char> seen(static_cast<std::size_t>(n), 0);
+  std::vector<int> group, around;
+  const double rim = max_range - link;
+  for (int i = 0; i < n; ++i) {
+    if (seen[i] || !marked(i) || !isNovel(i)) continue;
+    group.assign(1, i);
+    seen[i] = 1;
+    bool reaches = false;
+    for (std::size_t g = 0; g < group.size(); ++g) {
+      const Eigen::Vector3f& p = a[group[g]];
+      if (!marked(group[g]) && p.norm() >= rim) reaches = true;
+      around.clear();
+      own.within(p, link, &around);
+      for (const int j : around) {
+        if (seen[j] || !isNovel(j)) continue;
+        seen[j] = 1;
+        group.push_back(j);
+      }
+    }
+    if (!reaches) continue;
+    int matched = 0;
+    for (const int j : group) matched += marked(j);
+    if (matched >= min_matched)
+      for (const int j : group) (*mask)[a_index[j]] = 0;
+  }
+}
+
 }  // namespace
 
 Eigen::AlignedBox3f parseBodyBox(const std::string& text) {
@@ -233,7 +289,7 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m,
                             const NearestWithin& reference_within,
                             const NearestWithin& current_within, int threads,
-                            const SelfReturnReference* prepared) {
+                            const SelfReturnReference* prepared, int min_released) {
   SelfReturns s;
   s.current.assign(current.size(), 0);
   s.reference.assign(reference.size(), 0);
@@ -290,6 +346,13 @@ SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                 &s.current);
     markMatches(rn, ref->ri, rn_tree, cn_tree, s.tolerance_m, nd, reference, to_current, threads,
                 &s.reference);
+    if (nd > 0.0) {
+      const double link = kLinkTolerances * s.tolerance_m;
+      releaseReachingOut(cn, ci, cn_tree, nd, link, max_range, min_released, current, to_reference,
+                         &s.current);
+      releaseReachingOut(rn, ref->ri, rn_tree, nd, link, max_range, min_released, reference,
+                         to_current, &s.reference);
+    }
   }
   ref->rd.copyToRepeats(&s.reference);
   cd.copyToRepeats(&s.current);

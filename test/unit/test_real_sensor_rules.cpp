@@ -243,6 +243,69 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
 }
 
+/// A vertical panel relative to a sensor at `at` (its sensor frame turned only about up by
+/// `yaw`): from `hinge` (x, y in the sensor frame) `length` m along the heading `heading`
+/// [rad, sensor frame], 0.2-1.4 m above the floor, sampled every 2 cm.
+std::vector<PointT> panel(const Eigen::Vector3d& at, double yaw, const Eigen::Vector2d& hinge,
+                          double heading, double length) {
+  const Eigen::Matrix3d R(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  std::vector<PointT> out;
+  for (double s = 0.0; s <= length; s += 0.02) {
+    for (double z = 0.2; z <= 1.4; z += 0.02) {
+      const Eigen::Vector3d local(hinge.x() + s * std::cos(heading),
+                                  hinge.y() + s * std::sin(heading), z - at.z());
+      const Eigen::Vector3d q = at + R * local;
+      out.push_back(PointT(q.x(), q.y(), q.z()));
+    }
+  }
+  return out;
+}
+
+// A changed surface beside the robot that, in the sensor's frame, lies where the other
+// sweep had a surface (a door leaf swung by about the robot's own step and turn) matches
+// there along a strip; it runs on past the strip, out of the robot's range, as novel
+// structure, so it is no part of the robot: none of it is marked, in either sweep, while
+// the robot's body still is.
+TEST(SelfReturns, ChangedSurfaceCrossingTheRobotsFrameIsNotTheRobot) {
+  const Eigen::Vector3d at_ref(0, 0, 0.6), at_cur(2, 0, 0.6);
+  const Eigen::Vector2d hinge(0.4, 0.3);
+  MovedRobot m = movedRobot();
+  // In its sensor's frame the reference's panel runs straight ahead from the hinge, the
+  // current one turned 35 degrees from it: they cross along the hinge; the current panel's
+  // far edge lies 1.45-1.6 m from its sensor, at and past self_max_range_m (1.5 m).
+  std::vector<int> panel_ref, panel_cur;
+  for (const PointT& q : panel(at_ref, 0.0, hinge, 0.0, 0.9)) {
+    panel_ref.push_back(static_cast<int>(m.ref.size()));
+    m.ref.push_back(q);
+  }
+  for (const PointT& q : panel(at_cur, 0.0, hinge, 35.0 * M_PI / 180.0, 0.9)) {
+    panel_cur.push_back(static_cast<int>(m.cur.size()));
+    m.cur.push_back(q);
+  }
+  for (Cloud* c : {&m.ref, &m.cur}) c->width = c->size(), c->height = 1;
+  PreprocessParams p;
+  const SelfReturns s = findSelfReturns(m.ref, m.cur, p, 0.05);
+  ASSERT_TRUE(s.sought);
+  EXPECT_EQ(markedAmong(s.current, panel_cur), 0u) << "a changed surface taken for the robot";
+  EXPECT_EQ(markedAmong(s.reference, panel_ref), 0u) << "a changed surface taken for the robot";
+  EXPECT_GE(markedAmong(s.current, m.body_cur), m.body_cur.size() * 95 / 100);
+  EXPECT_GE(markedAmong(s.reference, m.body_ref), m.body_ref.size() * 95 / 100);
+  // The strip where the two cross is what matches: a panel cut short of the robot's range
+  // (0.5 m long, all of it within 1.3 m of the sensor) could be a part of the robot, and
+  // its strip is marked.
+  MovedRobot short_panel = movedRobot();
+  std::vector<int> strip_cur;
+  for (const PointT& q : panel(at_ref, 0.0, hinge, 0.0, 0.5)) short_panel.ref.push_back(q);
+  for (const PointT& q : panel(at_cur, 0.0, hinge, 35.0 * M_PI / 180.0, 0.5)) {
+    strip_cur.push_back(static_cast<int>(short_panel.cur.size()));
+    short_panel.cur.push_back(q);
+  }
+  for (Cloud* c : {&short_panel.ref, &short_panel.cur}) c->width = c->size(), c->height = 1;
+  const SelfReturns cut = findSelfReturns(short_panel.ref, short_panel.cur, p, 0.05);
+  EXPECT_GT(markedAmong(cut.current, strip_cur), 50u);
+  EXPECT_LT(markedAmong(cut.current, strip_cur), strip_cur.size() / 2);
+}
+
 // A sweep whose robot returns were found is pre-processed again without them: its stage
 // times list those stages twice, and their totals count both runs.
 TEST(SelfReturns, SweepIsSimplifiedAgainWithoutThemAndBothRunsAreTimed) {

@@ -18,7 +18,17 @@
 // point of the other sweep within the novelty distance nor within twice that match). Static
 // surfaces that run along the robot's motion (the floor under it, a corridor wall beside it) can
 // match in the sensor frame too, where the other sweep sampled them more sparsely: they are
-// unchanged, and dropping them loses nothing. Returns closer than preprocess/min_range_m are
+// unchanged, and dropping them loses nothing. A change beside the robot can match too: a
+// surface that, in the sensor's frame, crosses one the other sweep saw there (a door leaf
+// swung by about the robot's own step and turn) matches along the strip where the two meet.
+// The robot lies within self_max_range_m of its sensor, and such a surface runs on past the
+// strip as novel structure: a group of matched points that the map does not explain within
+// the novelty distance, followed through the sweep's points that the map does not explain
+// either (linked within twice the tolerance), that reaches to within that link of
+// self_max_range_m at a point that did not match is no part of the robot, and none of it is
+// marked (a group of at least segmentation/min_segment_points matched points: fewer are no
+// strip of a surface to tell from a part of the robot that matched in part). Returns closer
+// than preprocess/min_range_m are
 // dropped as well (the laser_filters range filter). So are returns inside preprocess/body_box (a
 // box in the sensor's frame, e.g. the base and mast below a tilting laser), in either sweep, moved
 // or not. Both sensor origins must be known; otherwise nothing is marked.
@@ -93,10 +103,13 @@ class SelfReturnReference {
 /// pre-processing); else one is built here. They are called from up to `threads` threads at
 /// once; the marks do not depend on the thread count. `prepared` (optional): the reference's
 /// side made before from the same reference and parameters (the marks are the same).
+/// `min_released`: a group of matched points that reaches out of the robot's range as novel
+/// structure (header comment) is released when it holds at least this many of them (the
+/// pipeline passes segmentation/min_segment_points); the release needs a novelty distance.
 SelfReturns findSelfReturns(const Cloud& reference, const Cloud& current,
                             const PreprocessParams& params, double novelty_distance_m = 0.0,
                             const NearestWithin& reference_within = {},
                             const NearestWithin& current_within = {}, int threads = 1,
-                            const SelfReturnReference* prepared = nullptr);
+                            const SelfReturnReference* prepared = nullptr, int min_released = 1);
 
 }  // namespace novelty_detection
