@@ -179,9 +179,13 @@ void releaseReachingOut(const Points& a, const std::vector<int>& a_index,
     group.assign(1, i);
     seen[i] = 1;
     bool reaches = false;
+    int matched = 0;
     for (std::size_t g = 0; g < group.size(); ++g) {
       const Eigen::Vector3f& p = a[group[g]];
-      if (!marked(group[g]) && p.norm() >= rim) reaches = true;
+      if (marked(group[g]))
+        ++matched;
+      else if (p.norm() >= rim)
+        reaches = true;
       around.clear();
       own.within(p, link, &around);
       for (const int j : around) {
@@ -190,10 +194,7 @@ void releaseReachingOut(const Points& a, const std::vector<int>& a_index,
         group.push_back(j);
       }
     }
-    if (!reaches) continue;
-    int matched = 0;
-    for (const int j : group) matched += marked(j);
-    if (matched >= min_matched)
+    if (reaches && matched >= min_matched)
       for (const int j : group) (*mask)[a_index[j]] = 0;
   }
 }

@@ -243,22 +243,30 @@ TEST(SelfReturns, BodyMarkedStaticSceneKept) {
   EXPECT_FALSE(findSelfReturns(ref, unknown, p).checked);
 }
 
-/// A vertical panel relative to a sensor at `at` (its sensor frame turned only about up by
-/// `yaw`): from `hinge` (x, y in the sensor frame) `length` m along the heading `heading`
-/// [rad, sensor frame], 0.2-1.4 m above the floor, sampled every 2 cm.
-std::vector<PointT> panel(const Eigen::Vector3d& at, double yaw, const Eigen::Vector2d& hinge,
-                          double heading, double length) {
-  const Eigen::Matrix3d R(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+/// A vertical panel beside a sensor at `at` (sensor frame = map axes): from `hinge` (x, y
+/// from the sensor) `length` m along the heading `heading` [rad], 0.2-1.4 m above the floor,
+/// sampled every 2 cm.
+std::vector<PointT> panel(const Eigen::Vector3d& at, const Eigen::Vector2d& hinge, double heading,
+                          double length) {
   std::vector<PointT> out;
   for (double s = 0.0; s <= length; s += 0.02) {
     for (double z = 0.2; z <= 1.4; z += 0.02) {
-      const Eigen::Vector3d local(hinge.x() + s * std::cos(heading),
-                                  hinge.y() + s * std::sin(heading), z - at.z());
-      const Eigen::Vector3d q = at + R * local;
-      out.push_back(PointT(q.x(), q.y(), q.z()));
+      out.push_back(PointT(at.x() + hinge.x() + s * std::cos(heading),
+                           at.y() + hinge.y() + s * std::sin(heading), z));
     }
   }
   return out;
+}
+
+/// Appends `points` to `cloud` (kept unorganised) and returns their indices.
+std::vector<int> append(Cloud* cloud, const std::vector<PointT>& points) {
+  std::vector<int> indices;
+  for (const PointT& q : points) {
+    indices.push_back(static_cast<int>(cloud->size()));
+    cloud->push_back(q);
+  }
+  cloud->width = cloud->size(), cloud->height = 1;
+  return indices;
 }
 
 // A changed surface beside the robot that, in the sensor's frame, lies where the other
@@ -273,16 +281,9 @@ TEST(SelfReturns, ChangedSurfaceCrossingTheRobotsFrameIsNotTheRobot) {
   // In its sensor's frame the reference's panel runs straight ahead from the hinge, the
   // current one turned 35 degrees from it: they cross along the hinge; the current panel's
   // far edge lies 1.45-1.6 m from its sensor, at and past self_max_range_m (1.5 m).
-  std::vector<int> panel_ref, panel_cur;
-  for (const PointT& q : panel(at_ref, 0.0, hinge, 0.0, 0.9)) {
-    panel_ref.push_back(static_cast<int>(m.ref.size()));
-    m.ref.push_back(q);
-  }
-  for (const PointT& q : panel(at_cur, 0.0, hinge, 35.0 * M_PI / 180.0, 0.9)) {
-    panel_cur.push_back(static_cast<int>(m.cur.size()));
-    m.cur.push_back(q);
-  }
-  for (Cloud* c : {&m.ref, &m.cur}) c->width = c->size(), c->height = 1;
+  const double turned = 35.0 * M_PI / 180.0;
+  const std::vector<int> panel_ref = append(&m.ref, panel(at_ref, hinge, 0.0, 0.9));
+  const std::vector<int> panel_cur = append(&m.cur, panel(at_cur, hinge, turned, 0.9));
   PreprocessParams p;
   const SelfReturns s = findSelfReturns(m.ref, m.cur, p, 0.05);
   ASSERT_TRUE(s.sought);
@@ -294,13 +295,8 @@ TEST(SelfReturns, ChangedSurfaceCrossingTheRobotsFrameIsNotTheRobot) {
   // (0.5 m long, all of it within 1.3 m of the sensor) could be a part of the robot, and
   // its strip is marked.
   MovedRobot short_panel = movedRobot();
-  std::vector<int> strip_cur;
-  for (const PointT& q : panel(at_ref, 0.0, hinge, 0.0, 0.5)) short_panel.ref.push_back(q);
-  for (const PointT& q : panel(at_cur, 0.0, hinge, 35.0 * M_PI / 180.0, 0.5)) {
-    strip_cur.push_back(static_cast<int>(short_panel.cur.size()));
-    short_panel.cur.push_back(q);
-  }
-  for (Cloud* c : {&short_panel.ref, &short_panel.cur}) c->width = c->size(), c->height = 1;
+  append(&short_panel.ref, panel(at_ref, hinge, 0.0, 0.5));
+  const std::vector<int> strip_cur = append(&short_panel.cur, panel(at_cur, hinge, turned, 0.5));
   const SelfReturns cut = findSelfReturns(short_panel.ref, short_panel.cur, p, 0.05);
   EXPECT_GT(markedAmong(cut.current, strip_cur), 50u);
   EXPECT_LT(markedAmong(cut.current, strip_cur), strip_cur.size() / 2);

@@ -28,10 +28,10 @@
 // self_max_range_m at a point that did not match is no part of the robot, and none of it is
 // marked (a group of at least segmentation/min_segment_points matched points: fewer are no
 // strip of a surface to tell from a part of the robot that matched in part). Returns closer
-// than preprocess/min_range_m are
-// dropped as well (the laser_filters range filter). So are returns inside preprocess/body_box (a
-// box in the sensor's frame, e.g. the base and mast below a tilting laser), in either sweep, moved
-// or not. Both sensor origins must be known; otherwise nothing is marked.
+// than preprocess/min_range_m are dropped as well (the laser_filters range filter). So are
+// returns inside preprocess/body_box (a box in the sensor's frame, e.g. the base and mast below
+// a tilting laser), in either sweep, moved or not. Both sensor origins must be known;
+// otherwise nothing is marked.
 #pragma once
 
 #include <Eigen/Geometry>
