@@ -51,6 +51,7 @@ Result detectInUpFrame(const Params& params_, const ReferenceModel& ref, const C
   addHiddenNovelties(d);
   addFreeContinuations(d);
   completeNewObjects(d);
+  addTurnedContinuations(d);
   labelSegments(d);
   markNewlyVisible(d);
   fitSuperquadrics(d);

@@ -296,6 +296,9 @@ struct SegmentationParams {
   bool visibility_check = true;
   bool sparse_groups = true;
   bool free_continuations = true;
+  bool turned_surfaces = true;
+  double turned_angle_deg = 30.0;
+  double turned_radius_factor = 2.0;
   HiddenParams hidden;
 
   template <class F>
@@ -365,6 +368,17 @@ struct SegmentationParams {
        "the link radius, through each other; at most as many as the segment has): the part "
        "of a new object that a Gaussian shared with the structure it touches holds "
        "(segmentation/free_continuations.h; needs the reference's sensor origin)"});
+    f("turned_surfaces", turned_surfaces,
+      {"points within tau of the map whose surface runs along another horizontal direction "
+       "in the sweep than in the map (a door leaf next to its hinge, where the old leaf "
+       "stood) join the segment they are linked to, after object completion "
+       "(segmentation/turned_surfaces.h)"});
+    f("turned_angle_deg", turned_angle_deg,
+      {"the two directions must be more than this far apart [deg]; about three times the "
+       "direction's error on a scan line at the suite's noise",
+       1.0, 89.0});
+    f("turned_radius_factor", turned_radius_factor,
+      {"the neighbourhoods whose directions are compared, in link radii", 0.5, 20.0});
     hidden.visit(f);
   }
   void validate() const;

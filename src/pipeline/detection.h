@@ -3,8 +3,8 @@
 // is documented where it is defined: the sweep's own stages (alignment, pre-processing and the
 // multi-scale cut, robot returns, tau, the mixture, the selection, the novel points and the
 // sparse groups) in sweep_stages.cpp, the rest (views, disappearances, hidden space, object
-// completion, labels, newly visible points, superquadrics) in object_stages.cpp. Internal
-// header: only the detector's sources include it.
+// completion, surfaces that turned, labels, newly visible points, superquadrics) in
+// object_stages.cpp. Internal header: only the detector's sources include it.
 #pragma once
 
 #include <cstddef>
@@ -72,6 +72,7 @@ void findDisappearedStructure(Detection& d);
 void addHiddenNovelties(Detection& d);
 void addFreeContinuations(Detection& d);
 void completeNewObjects(Detection& d);
+void addTurnedContinuations(Detection& d);
 void labelSegments(Detection& d);
 void markNewlyVisible(Detection& d);
 void fitSuperquadrics(Detection& d);

@@ -1,6 +1,6 @@
 // The stages of the detection chain after the novel points (pipeline/detection.h): the
 // current sweep's own view, disappearances, candidates the reference could not see, object
-// completion, the labels, newly visible points and the superquadrics.
+// completion, surfaces that turned, the labels, newly visible points and the superquadrics.
 #include <algorithm>
 #include <cstdint>
 #include <memory>
@@ -11,6 +11,7 @@
 #include "novelty_detection/segmentation/hidden_segments.h"
 #include "novelty_detection/segmentation/object_completion.h"
 #include "novelty_detection/segmentation/surface_creases.h"
+#include "novelty_detection/segmentation/turned_surfaces.h"
 #include "novelty_detection/shape/shape_retrieval.h"
 #include "novelty_detection/shape/superquadric.h"
 #include "novelty_detection/visibility/disappearance.h"
@@ -129,6 +130,28 @@ void completeNewObjects(Detection& d) {
   completeObjects(current, d.s.pre.kept, d.link_radius, sp.object_share, {}, &d.pieces,
                   &d.kept_index, creases.get(), sp.min_segment_points);
   d.timer.lap("objects");
+}
+
+/// Continuations across surfaces that turned (segmentation/turned_surfaces.h), after object
+/// completion: points within tau of the map whose surface runs another way in the sweep than
+/// in the map join the segment they are linked to (a leaf's part next to its hinge).
+void addTurnedContinuations(Detection& d) {
+  const SegmentationParams& sp = d.params.segmentation;
+  if (!sp.turned_surfaces || d.pieces.empty() || d.ref.structure.empty()) return;
+  const Cloud& current = *d.current;
+  const double radius = sp.turned_radius_factor * d.link_radius;
+  const auto changed = [&](int i) {
+    const Eigen::Vector3f p = current[i].getVector3fMap();
+    return d.ref.points.within(p, d.tau) &&
+           surfaceTurned(p, d.kept_index, d.ref.structure, radius, sp.turned_angle_deg);
+  };
+  const std::size_t added = growIntoFreeSpace(current, d.s.pre.kept, d.kept_index, &d.pieces,
+                                              d.link_radius, kFreeMaxGrowth, changed);
+  d.result.point_counts.emplace_back("turned_continuation_points", added);
+  if (added > 0)  // segments are numbered largest first
+    std::stable_sort(d.pieces.begin(), d.pieces.end(),
+                     [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  d.timer.lap("turned_continuations");
 }
 
 /// Segments from the pieces: ids 1.. largest first, labels per point, the Gaussians that
