@@ -295,6 +295,7 @@ struct SegmentationParams {
   double map_likelihood_quantile = 0.0;
   bool visibility_check = true;
   bool sparse_groups = true;
+  bool free_groups = true;
   bool free_continuations = true;
   bool turned_surfaces = true;
   double turned_angle_deg = 30.0;
@@ -362,6 +363,12 @@ struct SegmentationParams {
        "touching a segment joins it, one of at least min_segment_points points spreading in "
        "two directions is a segment of its own (segmentation/sparse_groups.h; needs both "
        "sensor origins)"});
+    f("free_groups", free_groups,
+      {"the same groups over the kept points no segment holds (farther from the map than tau "
+       "and their sampling spacing, in space the reference saw as free): one of at least "
+       "min_segment_points points that stands upright over several tilt lines is a segment "
+       "of its own: a far object no selected Gaussian owns "
+       "(segmentation/sparse_groups.h; needs both sensor origins)"});
     f("free_continuations", free_continuations,
       {"points the novel Gaussians' posterior turned down that lie farther than tau from the "
        "map, in space the reference saw as free, join the segment they are linked to (within "

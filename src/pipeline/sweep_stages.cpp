@@ -234,15 +234,17 @@ void segmentCandidates(Detection& d) {
 
 /// Compact groups among the points outlier removal took (segmentation/sparse_groups.h): a
 /// small far object sampled sparser than the statistic allows, standing in space the reference
-/// saw through. Needs the sweep's origin (its spacing per metre of range) and the reference's
-/// visibility (the free-space evidence); runs while outlier removal's statistics are at hand.
+/// saw through; then the free-standing groups among the kept points no segment holds (a far
+/// object no selected Gaussian owns). Needs the sweep's origin (its spacing per metre of
+/// range) and the reference's visibility (the free-space evidence); runs while outlier
+/// removal's statistics are at hand.
 void addSparseGroups(Detection& d) {
   const Cloud& current = *d.current;
   const PreprocessResult& pre = d.s.pre;
   const SegmentationParams& sp = d.params.segmentation;
-  if (!sp.sparse_groups || !sp.visibility_check || pre.outliers.empty() ||
-      pre.statistics.points.empty() || !sensorOriginKnown(current.sensor_origin_) ||
-      d.ref.visibility.empty())
+  const bool sparse = sp.sparse_groups && !pre.outliers.empty();
+  if (!(sparse || sp.free_groups) || !sp.visibility_check || pre.statistics.points.empty() ||
+      !sensorOriginKnown(current.sensor_origin_) || d.ref.visibility.empty())
     return;
   const Eigen::Vector3f origin = current.sensor_origin_.head<3>();
   const double ratio = spacingRatio(current, pre.statistics.points, pre.statistics.kth, origin);
@@ -260,18 +262,38 @@ void addSparseGroups(Detection& d) {
            d.ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell) ==
                Visibility::kFree;
   };
-  SparseGroups groups = sparseNovelGroups(current, pre.outliers, d.pieces, changed, origin, ratio,
-                                          sp.link_factor, sp.min_segment_points);
-  std::size_t restored = 0;
-  for (std::size_t s = 0; s < d.pieces.size(); ++s) {
-    d.pieces[s].insert(d.pieces[s].end(), groups.joined[s].begin(), groups.joined[s].end());
-    restored += groups.joined[s].size();
+  if (sparse) {
+    SparseGroups groups = sparseNovelGroups(current, pre.outliers, d.pieces, changed, origin, ratio,
+                                            sp.link_factor, sp.min_segment_points);
+    std::size_t restored = 0;
+    for (std::size_t s = 0; s < d.pieces.size(); ++s) {
+      d.pieces[s].insert(d.pieces[s].end(), groups.joined[s].begin(), groups.joined[s].end());
+      restored += groups.joined[s].size();
+    }
+    for (Indices& g : groups.segments) {
+      restored += g.size();
+      d.pieces.push_back(std::move(g));
+    }
+    d.result.point_counts.emplace_back("sparse_group_points", restored);
   }
-  for (Indices& g : groups.segments) {
-    restored += g.size();
-    d.pieces.push_back(std::move(g));
+  if (sp.free_groups) {
+    // The kept points no segment holds: a far object no selected Gaussian owns.
+    std::vector<char> taken(current.size(), 0);
+    for (const Indices& piece : d.pieces)
+      for (int i : piece) taken[static_cast<std::size_t>(i)] = 1;
+    Indices loose;
+    for (int i : pre.kept)
+      if (!taken[static_cast<std::size_t>(i)]) loose.push_back(i);
+    SparseGroups free =
+        sparseNovelGroups(current, loose, {}, changed, origin, ratio, sp.link_factor,
+                          sp.min_segment_points, GroupShape::kStands);
+    std::size_t grouped = 0;
+    for (Indices& g : free.segments) {
+      grouped += g.size();
+      d.pieces.push_back(std::move(g));
+    }
+    d.result.point_counts.emplace_back("free_group_points", grouped);
   }
-  d.result.point_counts.emplace_back("sparse_group_points", restored);
   std::stable_sort(d.pieces.begin(), d.pieces.end(),
                    [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
   d.timer.lap("sparse_groups");

@@ -26,6 +26,22 @@ bool spreadsInTwoDirections(const std::vector<Eigen::Vector3f>& points, const In
   return l[1] >= kMinSpreadRatio * kMinSpreadRatio * l[2];
 }
 
+/// Whether the group stands: its vertical extent (z, the detector's up frame) is at least
+/// kMinStandingSpacings times the sweep's spacing at the group's mean range.
+bool stands(const std::vector<Eigen::Vector3f>& points, const Indices& members,
+            const Eigen::Vector3f& origin, double spacing_ratio) {
+  float lo = points[static_cast<std::size_t>(members[0])].z(), hi = lo;
+  double range = 0.0;
+  for (int m : members) {
+    const Eigen::Vector3f& p = points[static_cast<std::size_t>(m)];
+    lo = std::min(lo, p.z());
+    hi = std::max(hi, p.z());
+    range += static_cast<double>((p - origin).norm());
+  }
+  range /= static_cast<double>(members.size());
+  return static_cast<double>(hi - lo) >= kMinStandingSpacings * spacing_ratio * range;
+}
+
 }  // namespace
 
 double spacingRatio(const Cloud& cloud, const Indices& points, const std::vector<double>& kth,
@@ -46,7 +62,7 @@ SparseGroups sparseNovelGroups(const Cloud& cloud, const Indices& removed,
                                const std::vector<Indices>& segments,
                                const std::function<bool(const Eigen::Vector3f&)>& changed,
                                const Eigen::Vector3f& origin, double spacing_ratio,
-                               double link_factor, int min_points) {
+                               double link_factor, int min_points, GroupShape shape) {
   SparseGroups out;
   out.joined.resize(segments.size());
   if (!(spacing_ratio > 0.0) || !(link_factor > 0.0)) return out;
@@ -106,7 +122,9 @@ SparseGroups sparseNovelGroups(const Cloud& cloud, const Indices& removed,
       into.insert(into.end(), cloud_indices.begin(), cloud_indices.end());
       continue;
     }
-    if (static_cast<int>(group.size()) < min_points || !spreadsInTwoDirections(points, group))
+    if (static_cast<int>(group.size()) < min_points) continue;
+    if (shape == GroupShape::kStands ? !stands(points, group, origin, spacing_ratio)
+                                     : !spreadsInTwoDirections(points, group))
       continue;
     out.segments.push_back(std::move(cloud_indices));
   }

@@ -15,6 +15,13 @@
 //    returns along an edge), becomes a segment of its own.
 // Isolated returns in free space stay removed: at the sweep's own spacing they have no
 // neighbours.
+//
+// Free-standing groups: the same rule over the kept points that no segment holds. A far object
+// whose points passed outlier removal but which no selected Gaussian owns (the Gaussians that
+// hold it hold the structure around it too) is a change by the same evidence; such a group
+// becomes a segment when it stands upright over several tilt lines (GroupShape::kStands: a far
+// door leaf seen at a grazing angle is a narrow upright strip; a piece of one scan line that a
+// pose error moved off a surface is not).
 #pragma once
 
 #include <Eigen/Core>
@@ -28,6 +35,16 @@ namespace novelty_detection {
 
 /// A group's second principal standard deviation must be at least this share of its first.
 constexpr double kMinSpreadRatio = 0.2;
+/// A group of kept points must stand: its vertical extent at least this many times the
+/// sweep's spacing at its range (several tilt lines of an upright surface, a far door leaf
+/// seen at a grazing angle; a piece of one scan line across a surface is no such group).
+constexpr double kMinStandingSpacings = 4.0;
+
+/// What makes a group that touches no segment a segment of its own (besides its size).
+enum class GroupShape {
+  kSpreadsInTwoDirections,  ///< the outliers' groups: a patch, not a streak along an edge
+  kStands,                  ///< the kept points' groups: upright over several tilt lines
+};
 
 /// The median over `points` (input indices of `cloud`) of the distance to their k-th nearest
 /// neighbour (`kth`, one per point) divided by their range from `origin`: the sweep's
@@ -47,6 +64,7 @@ SparseGroups sparseNovelGroups(const Cloud& cloud, const Indices& removed,
                                const std::vector<Indices>& segments,
                                const std::function<bool(const Eigen::Vector3f&)>& changed,
                                const Eigen::Vector3f& origin, double spacing_ratio,
-                               double link_factor, int min_points);
+                               double link_factor, int min_points,
+                               GroupShape shape = GroupShape::kSpreadsInTwoDirections);
 
 }  // namespace novelty_detection
