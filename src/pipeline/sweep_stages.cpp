@@ -281,12 +281,21 @@ void addSparseGroups(Detection& d) {
     std::vector<char> taken(current.size(), 0);
     for (const Indices& piece : d.pieces)
       for (int i : piece) taken[static_cast<std::size_t>(i)] = 1;
+    // Which of them changed, on compute/threads (each its own slot); the groups then take
+    // those alone.
+    const int n_kept = static_cast<int>(pre.kept.size());
+    std::vector<char> changed_kept(pre.kept.size(), 0);
+    detail::parallelForBlocks(n_kept, 512, d.params.compute.resolved(), [&](int k) {
+      const int i = pre.kept[static_cast<std::size_t>(k)];
+      changed_kept[static_cast<std::size_t>(k)] =
+          !taken[static_cast<std::size_t>(i)] && changed(current[i].getVector3fMap());
+    });
     Indices loose;
-    for (int i : pre.kept)
-      if (!taken[static_cast<std::size_t>(i)]) loose.push_back(i);
-    SparseGroups free =
-        sparseNovelGroups(current, loose, {}, changed, origin, ratio, sp.link_factor,
-                          sp.min_segment_points, GroupShape::kStands);
+    for (int k = 0; k < n_kept; ++k)
+      if (changed_kept[static_cast<std::size_t>(k)]) loose.push_back(pre.kept[k]);
+    SparseGroups free = sparseNovelGroups(
+        current, loose, {}, [](const Eigen::Vector3f&) { return true; }, origin, ratio,
+        sp.link_factor, sp.min_segment_points, GroupShape::kStands);
     std::size_t grouped = 0;
     for (Indices& g : free.segments) {
       grouped += g.size();
