@@ -113,6 +113,9 @@ TEST(FreeContinuations, DoorLeafSwungShutIsFoundWhole) {
   };
   Params with;
   with.superquadric.enabled = false;
+  // The rule alone: a free-standing group (sparse_groups.h) of the hinge half's kept points
+  // would be a segment of its own beside the leaf's.
+  with.segmentation.free_groups = false;
   Params without = with;
   without.segmentation.free_continuations = false;
   Pipeline a(with), b(without);
