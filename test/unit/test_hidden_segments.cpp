@@ -322,9 +322,10 @@ TEST(HiddenSegments, RevealedSurfacesAreNoContinuation) {
 // Suite scenes of seed 5 whose door leaf swung nearly shut, away from the space it filled: 17
 // (86 -> 26 deg) and 20 (90 -> 19 deg). Continuations without the revealed-surface test carry
 // the leaf's segment over the recess the old leaf hid (173 and 140 newly visible points, IoU
-// 0.48); with it the leaf is found on its own (11 and 6 revealed points at the hinge join it). In scene 14 of seed 2 (89 -> 19 deg, 2,709
-// points) 717 points of the leaf the reference could not see continue the mapped wall and
-// the leaf's own plane: they join it (without the second test the leaf's IoU is 0.49).
+// 0.48); with it the leaf is found on its own (11 and 6 revealed points at the hinge join it). In
+// scene 14 of seed 2 (89 -> 19 deg, 2,709 points) 717 points of the leaf the reference could not
+// see continue the mapped wall and the leaf's own plane: they join it (without the second test the
+// leaf's IoU is 0.49).
 TEST(HiddenSegments, DoorLeafDoesNotGrowOverTheRecessItRevealed) {
   for (const auto& [index, seed] : {std::pair{17, 5}, std::pair{20, 5}, std::pair{14, 2}}) {
     const sim::ScenePair s = sim::generateScenePair(sim::suiteSceneConfig(index, seed));
