@@ -7,6 +7,7 @@
 // object_stages.cpp. Internal header: only the detector's sources include it.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -24,6 +25,12 @@ namespace novelty_detection {
 namespace stages {
 
 inline Eigen::Vector3f point3f(const PointT& p) { return Eigen::Vector3f(p.x, p.y, p.z); }
+
+/// Orders segments' pieces largest first (ties keep their order): segments are numbered so.
+inline void sortLargestFirst(std::vector<Indices>* pieces) {
+  std::stable_sort(pieces->begin(), pieces->end(),
+                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+}
 
 /// The state one detect() call hands from stage to stage.
 struct Detection {

@@ -62,8 +62,7 @@ void addHiddenNovelties(Detection& d) {
                              static_cast<int>(d.result.current_gmm.size()), d.ref.structure, gone,
                              d.tau, d.params, &d.current_view, &gone_points))
       d.pieces.push_back(std::move(seg));
-    std::stable_sort(d.pieces.begin(), d.pieces.end(),
-                     [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+    sortLargestFirst(&d.pieces);
     d.timer.lap("hidden_segments");
   }
   if (d.params.segmentation.hidden.continuations) {
@@ -148,9 +147,7 @@ void addTurnedContinuations(Detection& d) {
   const std::size_t added = growIntoFreeSpace(current, d.s.pre.kept, d.kept_index, &d.pieces,
                                               d.link_radius, kFreeMaxGrowth, changed);
   d.result.point_counts.emplace_back("turned_continuation_points", added);
-  if (added > 0)  // segments are numbered largest first
-    std::stable_sort(d.pieces.begin(), d.pieces.end(),
-                     [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  if (added > 0) sortLargestFirst(&d.pieces);
   d.timer.lap("turned_continuations");
 }
 

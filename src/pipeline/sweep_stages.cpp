@@ -303,8 +303,7 @@ void addSparseGroups(Detection& d) {
     }
     d.result.point_counts.emplace_back("free_group_points", grouped);
   }
-  std::stable_sort(d.pieces.begin(), d.pieces.end(),
-                   [](const Indices& a, const Indices& b) { return a.size() > b.size(); });
+  sortLargestFirst(&d.pieces);
   d.timer.lap("sparse_groups");
 }
 
