@@ -297,6 +297,7 @@ struct SegmentationParams {
   bool sparse_groups = true;
   bool free_groups = true;
   bool free_continuations = true;
+  bool own_spacing_links = true;
   bool turned_surfaces = true;
   double turned_angle_deg = 30.0;
   double turned_radius_factor = 2.0;
@@ -375,6 +376,11 @@ struct SegmentationParams {
        "the link radius, through each other; at most as many as the segment has): the part "
        "of a new object that a Gaussian shared with the structure it touches holds "
        "(segmentation/free_continuations.h; needs the reference's sensor origin)"});
+    f("own_spacing_links", own_spacing_links,
+      {"a segment sampled more sparsely than the sweep (a surface seen at a grazing angle, a "
+       "far object) links its free continuations at link_factor times its own points' median "
+       "4-NN spacing, at most merge_gap_factor link radii "
+       "(segmentation/free_continuations.h)"});
     f("turned_surfaces", turned_surfaces,
       {"points within tau of the map whose surface runs along another horizontal direction "
        "in the sweep than in the map (a door leaf next to its hinge, where the old leaf "

@@ -97,8 +97,14 @@ void addFreeContinuations(Detection& d) {
            d.ref.visibility.classify(p, margin, RangeImage::Neighbourhood::kOwnCell) ==
                Visibility::kFree;
   };
-  const std::size_t added = growIntoFreeSpace(current, d.s.pre.kept, d.kept_index, &d.pieces,
-                                              d.link_radius, kFreeMaxGrowth, changed);
+  // Segments sampled more sparsely than the sweep link at their own spacing.
+  std::vector<double> radii;
+  if (sp.own_spacing_links)
+    radii = ownSpacingRadii(current, d.pieces, d.kept_index, sp.link_factor, d.link_radius,
+                            sp.merge_gap_factor * d.link_radius);
+  const std::size_t added =
+      growIntoFreeSpace(current, d.s.pre.kept, d.kept_index, &d.pieces, d.link_radius,
+                        kFreeMaxGrowth, changed, radii.empty() ? nullptr : &radii);
   d.result.point_counts.emplace_back("free_continuation_points", added);
   d.timer.lap("free_continuations");
 }

@@ -13,13 +13,41 @@
 
 namespace novelty_detection {
 
+std::vector<double> ownSpacingRadii(const Cloud& cloud, const std::vector<Indices>& segments,
+                                    const NearestNeighbourIndex& kept_index, double link_factor,
+                                    double link_radius_m, double max_radius_m) {
+  std::vector<double> radii(segments.size(), link_radius_m);
+  std::vector<double> spacing;
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const Indices& seg = segments[s];
+    const std::size_t stride = std::max<std::size_t>(1, seg.size() / kSpacingSamples);
+    spacing.clear();
+    for (std::size_t j = 0; j < seg.size(); j += stride) {
+      // k = 5: the point itself (it is in the index) and its 4 nearest, as sweepSpacing().
+      const double d = kept_index.kthDistance(cloud[seg[j]].getVector3fMap(), 5);
+      if (std::isfinite(d)) spacing.push_back(d);
+    }
+    if (spacing.empty()) continue;
+    const auto mid = spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2);
+    std::nth_element(spacing.begin(), mid, spacing.end());
+    radii[s] = std::clamp(link_factor * *mid, link_radius_m, std::max(link_radius_m, max_radius_m));
+  }
+  return radii;
+}
+
 std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
                               const NearestNeighbourIndex& kept_index,
                               std::vector<Indices>* segments, double link_radius_m,
-                              double max_growth, const std::function<bool(int)>& changed) {
-  if (!segments || segments->empty() || kept.empty() || !(link_radius_m > 0.0) ||
-      !std::isfinite(link_radius_m) || !(max_growth > 0.0))
-    return 0;
+                              double max_growth, const std::function<bool(int)>& changed,
+                              const std::vector<double>* radii) {
+  if (!segments || segments->empty() || kept.empty() || !(max_growth > 0.0)) return 0;
+  if (radii && radii->size() != segments->size()) return 0;
+  // Each segment's link radius; the largest bounds every search.
+  std::vector<double> radius(segments->size(), link_radius_m);
+  if (radii) radius = *radii;
+  for (double r : radius)
+    if (!(r > 0.0) || !std::isfinite(r)) return 0;
+  const double largest = *std::max_element(radius.begin(), radius.end());
   // Per kept position: 0 not asked, 1 taken (by a segment or the growth), 2 asked, unchanged.
   std::vector<std::uint8_t> state(kept.size(), 0);
   for (const Indices& s : *segments)
@@ -32,12 +60,11 @@ std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
   // about them). The points a segment gains are searched in the index: their links may leave
   // the boxes. Both keep the index's test (squared float distance below the radius's), so
   // either search finds the same points.
-  const float r2 = static_cast<float>(link_radius_m * link_radius_m);
-  const auto pad = Eigen::Vector3f::Constant(static_cast<float>(link_radius_m));
   std::vector<Eigen::AlignedBox3f> boxes;
-  for (const Indices& s : *segments) {
+  for (std::size_t s = 0; s < segments->size(); ++s) {
     Eigen::AlignedBox3f box;
-    for (int i : s) box.extend(cloud[i].getVector3fMap());
+    for (int i : (*segments)[s]) box.extend(cloud[i].getVector3fMap());
+    const auto pad = Eigen::Vector3f::Constant(static_cast<float>(radius[s]));
     if (!box.isEmpty()) boxes.emplace_back(box.min() - pad, box.max() + pad);
   }
   std::vector<int> near_ids;  // kept positions
@@ -53,17 +80,20 @@ std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
       }
   }
   if (near_ids.empty()) return 0;
-  const double reach = link_radius_m * (1.0 + 1e-6);  // a superset of the float test's points
-  const PointGrid grid(near_points, reach);
+  const PointGrid grid(near_points, largest * (1.0 + 1e-6));
   std::size_t total = 0;
   std::vector<int> ids;
   std::vector<std::pair<float, int>> near;
+  float r2 = 0.f;
   const auto consider = [&](int id, const Eigen::Vector3f& p) {
     if (state[static_cast<std::size_t>(id)] != 0) return;
     const float d2 = (kept_index.point(id) - p).squaredNorm();
     if (d2 < r2) near.emplace_back(d2, id);
   };
-  for (Indices& seg : *segments) {
+  for (std::size_t s = 0; s < segments->size(); ++s) {
+    Indices& seg = (*segments)[s];
+    r2 = static_cast<float>(radius[s] * radius[s]);
+    const double reach = radius[s] * (1.0 + 1e-6);  // a superset of the float test's points
     const std::size_t cap = static_cast<std::size_t>(max_growth * static_cast<double>(seg.size()));
     std::deque<int> frontier(seg.begin(), seg.end());  // input indices
     std::size_t own = seg.size();                      // the first `own` are the segment's
@@ -78,7 +108,7 @@ std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
                            [&](int j) { consider(near_ids[static_cast<std::size_t>(j)], p); });
       } else {
         ids.clear();
-        kept_index.withinIds(p, link_radius_m, &ids);
+        kept_index.withinIds(p, radius[s], &ids);
         for (int id : ids) consider(id, p);
       }
       std::sort(near.begin(), near.end());

@@ -12,6 +12,14 @@
 // is the evidence for its continuation; a wall shifted by a pose error is no part of an
 // object standing beside it). Points in no segment's reach stay as they are: without a
 // selected Gaussian the rule makes no segment.
+//
+// Segments sampled more sparsely than the sweep: the link radius is link_factor times the
+// median 4-NN spacing of the novel points, which the near, densely sampled surfaces set. A
+// surface seen at a grazing angle (a door leaf swung nearly parallel to the beams) or far
+// away is sampled at a larger spacing of its own, and the points of its next tilt line or
+// of the next beams lie beyond that radius. Such a segment links at link_factor times its
+// own points' median 4-NN spacing in the sweep (ownSpacingRadii), at most merge_gap_factor
+// link radii (the farthest the segmentation merges the pieces of one object).
 #pragma once
 
 #include <functional>
@@ -25,13 +33,25 @@ namespace novelty_detection {
 /// A segment's continuation holds at most this many times its own points.
 constexpr double kFreeMaxGrowth = 1.0;
 
+/// Per segment: link_factor times the median over its points (at most kSpacingSamples of
+/// them, evenly strided) of the distance to their 4th nearest other point of `kept_index`,
+/// clamped to [link_radius_m, max_radius_m]; link_radius_m for a segment without samples.
+std::vector<double> ownSpacingRadii(const Cloud& cloud, const std::vector<Indices>& segments,
+                                    const NearestNeighbourIndex& kept_index, double link_factor,
+                                    double link_radius_m, double max_radius_m);
+
+/// Points sampled per segment for its own spacing.
+constexpr std::size_t kSpacingSamples = 256;
+
 /// Grows `segments` (input indices of `cloud`) into the points of `kept` (ascending input
 /// indices; `kept_index` indexes cloud[kept] in that order) for which `changed(index)` holds,
 /// by the rule above. Each point is asked at most once; segments come back ascending.
-/// Returns the number of points added.
+/// Returns the number of points added. `radii`, when given, holds one link radius per
+/// segment (each > 0) in place of `link_radius_m`.
 std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
                               const NearestNeighbourIndex& kept_index,
                               std::vector<Indices>* segments, double link_radius_m,
-                              double max_growth, const std::function<bool(int)>& changed);
+                              double max_growth, const std::function<bool(int)>& changed,
+                              const std::vector<double>* radii = nullptr);
 
 }  // namespace novelty_detection
