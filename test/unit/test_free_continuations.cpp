@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <map>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "novelty_detection/pipeline.h"
@@ -55,6 +56,15 @@ double bestIouWith(const sim::ScenePair& s, int id, const Result& r) {
   for (const auto& [l, n] : on_object)
     best = std::max(best, static_cast<double>(n) / (seg_size[l] + object_points - n));
   return best;
+}
+
+/// The scene's sweep detected with each of two parameter sets.
+std::pair<Result, Result> detectBothWays(const sim::ScenePair& s, const Params& with,
+                                         const Params& without) {
+  Pipeline a(with), b(without);
+  a.setReference(s.reference);
+  b.setReference(s.reference);
+  return {a.detect(s.current), b.detect(s.current)};
 }
 
 }  // namespace
@@ -177,10 +187,7 @@ TEST(FreeContinuations, DoorLeafSwungShutIsFoundWhole) {
   with.segmentation.free_groups = false;
   Params without = with;
   without.segmentation.free_continuations = false;
-  Pipeline a(with), b(without);
-  a.setReference(s.reference);
-  b.setReference(s.reference);
-  const Result ra = a.detect(s.current), rb = b.detect(s.current);
+  const auto [ra, rb] = detectBothWays(s, with, without);
   const double iou_with = bestIou(ra), iou_without = bestIou(rb);
   std::printf("door leaf: IoU %.2f with the rule, %.2f without\n", iou_with, iou_without);
   EXPECT_GE(iou_with, 0.55);
@@ -204,10 +211,7 @@ TEST(FreeContinuations, AFarLeafAtAGrazingAngleIsFollowedAtItsOwnSpacing) {
   with.superquadric.enabled = false;
   Params without = with;
   without.segmentation.own_spacing_links = false;
-  Pipeline a(with), b(without);
-  a.setReference(s.reference);
-  b.setReference(s.reference);
-  const Result ra = a.detect(s.current), rb = b.detect(s.current);
+  const auto [ra, rb] = detectBothWays(s, with, without);
   const double iou_with = bestIouWith(s, door, ra), iou_without = bestIouWith(s, door, rb);
   std::printf("far leaf: IoU %.3f at its own spacing, %.3f at the sweep's\n", iou_with,
               iou_without);
