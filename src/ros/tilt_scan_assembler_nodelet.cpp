@@ -65,7 +65,15 @@ void TiltScanAssemblerNodelet::onInit() {
   });
   scan_sub_ = pnh.subscribe<sensor_msgs::LaserScan>(
       "scan", static_cast<std::uint32_t>(queue_size_),
-      [this](const sensor_msgs::LaserScan::ConstPtr& scan) { tf_filter_->add(scan); });
+      [this](const sensor_msgs::LaserScan::ConstPtr& scan) {
+        {
+          // A line has arrived when it is received: while it waits for its transform (tf
+          // late on a loaded machine) the sweep it ends is not idle.
+          std::lock_guard<std::mutex> lock(mutex_);
+          last_line_wall_ = ros::WallTime::now();
+        }
+        tf_filter_->add(scan);  // may call onScan() at once, which takes the lock
+      });
   idle_timer_ =
       pnh.createWallTimer(ros::WallDuration(idle_timeout_ / 4), [this](const ros::WallTimerEvent&) {
         std::lock_guard<std::mutex> lock(mutex_);
