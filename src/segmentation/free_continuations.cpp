@@ -17,20 +17,11 @@ std::vector<double> ownSpacingRadii(const Cloud& cloud, const std::vector<Indice
                                     const NearestNeighbourIndex& kept_index, double link_factor,
                                     double link_radius_m, double max_radius_m) {
   std::vector<double> radii(segments.size(), link_radius_m);
-  std::vector<double> spacing;
   for (std::size_t s = 0; s < segments.size(); ++s) {
-    const Indices& seg = segments[s];
-    const std::size_t stride = std::max<std::size_t>(1, seg.size() / kSpacingSamples);
-    spacing.clear();
-    for (std::size_t j = 0; j < seg.size(); j += stride) {
-      // k = 5: the point itself (it is in the index) and its 4 nearest, as sweepSpacing().
-      const double d = kept_index.kthDistance(cloud[seg[j]].getVector3fMap(), 5);
-      if (std::isfinite(d)) spacing.push_back(d);
-    }
-    if (spacing.empty()) continue;
-    const auto mid = spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2);
-    std::nth_element(spacing.begin(), mid, spacing.end());
-    radii[s] = std::clamp(link_factor * *mid, link_radius_m, std::max(link_radius_m, max_radius_m));
+    const double spacing = sweepSpacing(cloud, kept_index, segments[s], kSpacingSamples);
+    if (std::isfinite(spacing))
+      radii[s] =
+          std::clamp(link_factor * spacing, link_radius_m, std::max(link_radius_m, max_radius_m));
   }
   return radii;
 }
@@ -43,8 +34,8 @@ std::size_t growIntoFreeSpace(const Cloud& cloud, const Indices& kept,
   if (!segments || segments->empty() || kept.empty() || !(max_growth > 0.0)) return 0;
   if (radii && radii->size() != segments->size()) return 0;
   // Each segment's link radius; the largest bounds every search.
-  std::vector<double> radius(segments->size(), link_radius_m);
-  if (radii) radius = *radii;
+  const std::vector<double> uniform(radii ? 0 : segments->size(), link_radius_m);
+  const std::vector<double>& radius = radii ? *radii : uniform;
   for (double r : radius)
     if (!(r > 0.0) || !std::isfinite(r)) return 0;
   const double largest = *std::max_element(radius.begin(), radius.end());

@@ -118,11 +118,13 @@ double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& poi
   return sweepSpacing(cloud, index, points);
 }
 
-double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points) {
+double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points,
+                    std::size_t max_samples) {
   constexpr int k = 5;  // the point itself (it is in the sweep) and its 4 nearest
   if (sweep.size() < k || points.empty()) return std::numeric_limits<double>::infinity();
   std::vector<double> spacing;
-  const std::size_t stride = std::max<std::size_t>(1, points.size() / 2000);
+  const std::size_t stride =
+      std::max<std::size_t>(1, points.size() / std::max<std::size_t>(1, max_samples));
   for (std::size_t j = 0; j < points.size(); j += stride) {
     const double d = sweep.kthDistance(cloud[points[j]].getVector3fMap(), k);
     if (std::isfinite(d)) spacing.push_back(d);

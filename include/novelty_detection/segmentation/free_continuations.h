@@ -33,14 +33,15 @@ namespace novelty_detection {
 /// A segment's continuation holds at most this many times its own points.
 constexpr double kFreeMaxGrowth = 1.0;
 
-/// Per segment: link_factor times the median over its points (at most kSpacingSamples of
-/// them, evenly strided) of the distance to their 4th nearest other point of `kept_index`,
-/// clamped to [link_radius_m, max_radius_m]; link_radius_m for a segment without samples.
+/// Per segment: link_factor times its sweepSpacing() in `kept_index` (over every
+/// (size / kSpacingSamples)-th of its points), clamped to [link_radius_m, max_radius_m];
+/// link_radius_m where the spacing is unknown.
 std::vector<double> ownSpacingRadii(const Cloud& cloud, const std::vector<Indices>& segments,
                                     const NearestNeighbourIndex& kept_index, double link_factor,
                                     double link_radius_m, double max_radius_m);
 
-/// Points sampled per segment for its own spacing.
+/// A segment's own spacing is sampled at a stride of its size over this (all of a segment
+/// of fewer points).
 constexpr std::size_t kSpacingSamples = 256;
 
 /// Grows `segments` (input indices of `cloud`) into the points of `kept` (ascending input

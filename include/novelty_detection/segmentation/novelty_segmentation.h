@@ -100,8 +100,10 @@ std::vector<Indices> linkComponents(const Cloud& cloud, const Indices& indices, 
 /// farther apart than the sweep samples there; their mutual spacing would link (and merge)
 /// across metres, so the link radius takes the smaller of the two.
 double sweepSpacing(const Cloud& cloud, const Indices& sweep, const Indices& points);
-/// As above with an index over cloud[sweep] already built.
-double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points);
+/// As above with an index over cloud[sweep] already built; the sample is every
+/// (size / max_samples)-th point of `points`.
+double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, const Indices& points,
+                    std::size_t max_samples = 2000);
 
 /// The sweep the novel points were found in: its kept points (cloud indices) and, when known,
 /// its sensor origin (in the cloud's frame).
