@@ -55,6 +55,20 @@ std::vector<StageTiming> stageTotals(const std::vector<StageTiming>& timings) {
   return out;
 }
 
+const char* floorSupportName(FloorSupport support) {
+  switch (support) {
+    case FloorSupport::kPoints:
+      return "points";
+    case FloorSupport::kFloorAtFoot:
+      return "floor_at_foot";
+    case FloorSupport::kHidden:
+      return "hidden";
+    case FloorSupport::kNone:
+      break;
+  }
+  return "none";
+}
+
 Segment makeSegment(const Cloud& cloud, Indices indices, int id) {
   Segment s;
   s.id = id;

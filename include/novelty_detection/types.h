@@ -63,6 +63,14 @@ struct Gmm {
   bool empty() const { return components.empty(); }
 };
 
+/// What a fit took to hold an object up (shape/fit_bounds.h): its returns come down to the
+/// floor (kPoints); its lowest line lies above the floor's band with the floor seen at its
+/// foot (kFloorAtFoot); its underside was not observed and nothing was seen beneath it, so it
+/// was taken to stand on the floor (kHidden: assumed); none (kNone: fitted to its points).
+enum class FloorSupport : std::uint8_t { kNone = 0, kPoints, kFloorAtFoot, kHidden };
+/// "none", "points", "floor_at_foot", "hidden".
+const char* floorSupportName(FloorSupport support);
+
 /// A superellipsoid (the paper's 11 parameters Lambda, eq. 2) in the fixed frame.
 /// Orientation uses Z-Y-Z Euler angles (phi, theta, psi), as Jaklic et al.:
 /// R = Rz(phi) * Ry(theta) * Rz(psi); a point p_world maps to the canonical frame by
@@ -74,10 +82,11 @@ struct Superquadric {
   Eigen::Vector3d euler = Eigen::Vector3d::Zero();     ///< phi, theta, psi [rad], ZYZ
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< centre [m]
 
-  int segment = 0;        ///< novelty segment id this part belongs to
-  int points = 0;         ///< number of points it was fitted on
-  double residual = 0.0;  ///< mean of eq. 3's squared terms over its points
-  Indices indices;        ///< input-cloud indices it explains (may be empty)
+  int segment = 0;                             ///< novelty segment id this part belongs to
+  int points = 0;                              ///< number of points it was fitted on
+  double residual = 0.0;                       ///< mean of eq. 3's squared terms over its points
+  Indices indices;                             ///< input-cloud indices it explains (may be empty)
+  FloorSupport support = FloorSupport::kNone;  ///< its segment's support (FloorSupport)
 
   Eigen::Matrix3d rotation() const;
   Eigen::Quaterniond quaternion() const;

@@ -271,8 +271,10 @@ void fitSuperquadrics(Detection& d) {
     try {
       const FitBounds bounds = fitBoundsFor(fine, seg.id, source, p);
       shapes[job] = retrieval.recover(fine, coarse, seg.id, &bounds);
-      for (Superquadric& sq : shapes[job])
+      for (Superquadric& sq : shapes[job]) {
         for (int& k : sq.indices) k = seg.indices[k];  // into the input cloud
+        sq.support = bounds.support;
+      }
     } catch (const std::exception&) {
       shapes[job].clear();  // keep the segment without a shape
     }

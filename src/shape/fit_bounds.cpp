@@ -79,7 +79,7 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   const double spacing = medianSpacing(segment);
   // Sweep points nearer than this to the segment may be its own (missed by segmentation).
   const double own = std::max(source.margin_m, 2.0 * spacing);
-  Points3d outside, floor_points;
+  Points3d outside, floor_points, others;
 
   // Space the sweep saw through, sampled on a grid over the box.
   if (source.view && !source.view->empty()) {
@@ -109,13 +109,21 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
       if (bounds.view && bounds.has_floor &&
           bounds.heightAboveFloor(p) <= bounds.floor_band_m + source.margin_m)
         floor_points.push_back(p);
+      else
+        others.push_back(p);
       if (grid && grid->nearest(p) >= 0) continue;
       outside.push_back(p);
     }
   }
   bounds.outside = subsample(outside, params.bound_points);
-  bounds.rests_on_floor =
-      restsOnFloor(segment, floor_points, spacing, bounds, &bounds.lowest_height_m);
+  bounds.rests_on_floor = restsOnFloor(segment, floor_points, others, spacing, bounds,
+                                       &bounds.lowest_height_m, &bounds.support);
+  bounds.hidden_beneath = bounds.support == FloorSupport::kHidden;
+  if (bounds.has_floor) {
+    FitBounds by_points = bounds;
+    by_points.rests_on_floor = false;
+    if (by_points.standsOnFloor(segment)) bounds.support = FloorSupport::kPoints;
+  }
   return bounds;
 }
 

@@ -1,6 +1,6 @@
-// What a far object's sparse view says (shape/fit_bounds.h): whether a segment whose lowest
-// line was taken for the floor rests on it, and the axis a round object's sections are
-// circles about.
+// What a far or partly hidden object's view says (shape/fit_bounds.h): whether a segment
+// whose lowest line was taken for the floor, or whose underside is hidden, rests on it, the
+// hidden lower part of the latter, and the axis a round object's sections are circles about.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -20,9 +20,11 @@ constexpr double kRestStepM = 0.02;
 constexpr int kCircleIterations = 20;
 }  // namespace
 
-bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
-                  const FitBounds& bounds, double* lowest_height_m) {
-  if (!bounds.has_floor || !bounds.view || segment.empty() || floor_points.empty()) return false;
+bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, const Points3d& others,
+                  double spacing, const FitBounds& bounds, double* lowest_height_m,
+                  FloorSupport* support) {
+  if (support) *support = FloorSupport::kNone;
+  if (!bounds.has_floor || !bounds.view || segment.empty()) return false;
   double low = std::numeric_limits<double>::infinity(), high = -low;
   for (const auto& p : segment) {
     low = std::min(low, bounds.heightAboveFloor(p));
@@ -45,20 +47,77 @@ bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double 
   plan.reserve(floor_points.size());
   for (const auto& f : floor_points) plan.push_back(on_plan(f));
   const PointGrid floor_grid(plan, reach);
-  int seen_beneath = 0, floor_at_foot = 0;
+  // The sweep's other returns above the floor, on the floor plan (their heights kept apart).
+  Points3d other_plan;
+  std::vector<double> other_height;
+  other_plan.reserve(others.size());
+  other_height.reserve(others.size());
+  for (const auto& o : others) {
+    other_plan.push_back(on_plan(o));
+    other_height.push_back(bounds.heightAboveFloor(o));
+  }
+  const PointGrid other_grid(other_plan, reach);
+  int seen_beneath = 0, floor_at_foot = 0, hidden_beneath = 0;
   for (const auto& p : bottom) {
     const double h = bounds.heightAboveFloor(p);
+    // Seen through beneath (any ray of the 3 x 3 window passed below it), and, by each
+    // sample's own cell, seen through or hidden (behind what the sweep saw, or not looked at).
+    bool free = false, through = false, hidden = false;
     for (double d = step; h - d > bounds.floor_band_m; d += step) {
-      if (bounds.view->classify((p - d * bounds.up).cast<float>(), bounds.margin_m) ==
-          Visibility::kFree) {
-        ++seen_beneath;
-        break;
-      }
+      const Eigen::Vector3f q = (p - d * bounds.up).cast<float>();
+      if (!free && bounds.view->classify(q, bounds.margin_m) == Visibility::kFree) free = true;
+      const Visibility own =
+          bounds.view->classify(q, bounds.margin_m, RangeImage::Neighbourhood::kOwnCell);
+      through = through || own == Visibility::kFree;
+      hidden = hidden || own == Visibility::kOccluded || own == Visibility::kUnknown;
     }
-    if (floor_grid.nearest(on_plan(p)) >= 0) ++floor_at_foot;
+    seen_beneath += free;
+    const Eigen::Vector3d foot = on_plan(p);
+    if (floor_grid.nearest(foot) >= 0) {
+      ++floor_at_foot;
+      continue;
+    }
+    if (free || through || !hidden) continue;
+    // Hidden beneath: nothing the sweep returned lies under the point (no table, no shelf).
+    bool below = false;
+    other_grid.forNeighbours(foot, reach, [&](int j) {
+      below = below || other_height[static_cast<std::size_t>(j)] < h - step;
+    });
+    hidden_beneath += !below;
   }
   const double n = static_cast<double>(bottom.size());
-  return seen_beneath <= kMaxSeenBeneath * n && floor_at_foot >= kMinFloorAtFoot * n;
+  const bool rests =
+      seen_beneath <= kMaxSeenBeneath * n && floor_at_foot + hidden_beneath >= kMinFloorAtFoot * n;
+  if (rests && support)
+    *support = floor_at_foot >= hidden_beneath ? FloorSupport::kFloorAtFoot : FloorSupport::kHidden;
+  return rests;
+}
+
+Points3d extrudedToFloor(const Points3d& points, const FitBounds& bounds) {
+  if (!bounds.hidden_beneath || !bounds.rests_on_floor || !bounds.has_floor || points.size() < 2)
+    return {};
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& p : points) {
+    lo = std::min(lo, bounds.heightAboveFloor(p));
+    hi = std::max(hi, bounds.heightAboveFloor(p));
+  }
+  // Points that come down to the floor themselves, or that do not hold the segment's bottom
+  // (a part above another one), have no hidden part below them.
+  if (lo <= bounds.floor_band_m + bounds.params.support_fraction * (hi - lo) ||
+      lo > bounds.lowest_height_m + std::max(bounds.floor_band_m, bounds.margin_m))
+    return {};
+  const double step = std::max(2.0 * medianSpacing(points), kRestBand * (hi - lo));
+  if (!(step > 0.0)) return {};
+  Points3d band;
+  for (const auto& p : points)
+    if (bounds.heightAboveFloor(p) < lo + step) band.push_back(p);
+  Points3d out;
+  for (double down = step; lo - down >= 0.0; down += step)
+    for (const auto& p : band) out.push_back(p - down * bounds.up);
+  // As densely per height as the points themselves (a scanner's lines lie farther apart
+  // than its points along them): the seen part keeps its weight in the fit.
+  const double per_height = static_cast<double>(points.size()) / std::max(hi - lo, step);
+  return subsample(out, static_cast<int>(std::lround(per_height * lo)));
 }
 
 bool sectionCirclesCentre(const Points3d& points, const Eigen::Vector3d& up,

@@ -111,6 +111,16 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     return subsample(both, params_.max_fit_points);
   };
 
+  // A segment taken to stand on the floor through hidden space also gains its hidden lower
+  // part (fit_bounds.h), thinned with its points to the fit's point budget.
+  const auto with_lower_part = [&](Points3d points) {
+    if (!bounds) return points;
+    const Points3d below = extrudedToFloor(points, *bounds);
+    if (below.empty()) return points;
+    points.insert(points.end(), below.begin(), below.end());
+    return subsample(points, params_.max_fit_points);
+  };
+
   // A tall composite standing on the floor (a person) is cut where its section steps, into
   // legs, trunk, limbs and head (standing_parts.h), not by split and merge's cuts across
   // its main axis, which slice the body into slabs.
@@ -168,14 +178,15 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
     // The ellipsoid kept: its section is round, and its centre is found from its
     // curvature (fit_bounds.h).
     Superquadric model = start.sq;
-    const Points3d seen = with_hidden_side(sub, 0.0, &model, false, round_section);
+    const Points3d seen = with_lower_part(with_hidden_side(sub, 0.0, &model, false, round_section));
     FitResult fit = bounded.refine(seen, model, -1, true, FitMeasures::kNone);
     fit = withTurnedSection(bounded, seen, fit, bounds->up, params_.epsilon_min);
     // A round section's silhouette ends lie in front of its centre: mirror again knowing
     // how round the first fit came out.
     const double roundness = bounds->has_floor ? horizontalRoundness(fit.sq, bounds->up) : 0.0;
     model = fit.sq;
-    const Points3d data = roundness > 0.0 ? with_hidden_side(sub, roundness, &model) : seen;
+    const Points3d data =
+        roundness > 0.0 ? with_lower_part(with_hidden_side(sub, roundness, &model)) : seen;
     if (roundness > 0.0) fit = bounded.refine(data, model, -1, true, FitMeasures::kNone);
     // Then once more with the middles of the gaps the sweep left around it, together
     // weighing a quarter of the points.
@@ -260,6 +271,7 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
       // A standing composite's parts (trunk, limbs, head) are seen from one side too: each
       // also fits its points reflected about its own vertical axis (fit_bounds.h).
       if (standing) data = with_hidden_side(data, 0.0, &start, true);
+      data = with_lower_part(std::move(data));
       if (round_check) {
         // Round or free is chosen the way split and merge ranks its fits (few points, few
         // iterations); only the chosen model is polished.

@@ -73,7 +73,8 @@ json superquadricsJson(const std::vector<nd::Superquadric>& superquadrics) {
          {"orientation",
           {{"quaternion", json::array({q.x(), q.y(), q.z(), q.w()})}, {"euler", vec(sq.euler)}}},
          {"points", sq.points},
-         {"residual", sq.residual}});
+         {"residual", sq.residual},
+         {"support", nd::floorSupportName(sq.support)}});
   }
   return list;
 }

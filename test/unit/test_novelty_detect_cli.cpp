@@ -100,8 +100,12 @@ TEST(NoveltyDetectCli, WritesTheContractFiles) {
   EXPECT_EQ(sqs.size(), report["num_superquadrics"].get<std::size_t>());
   for (const auto& e : sqs) {
     for (const char* key :
-         {"segment", "a", "epsilon", "position", "orientation", "points", "residual"})
+         {"segment", "a", "epsilon", "position", "orientation", "points", "residual", "support"})
       EXPECT_TRUE(e.contains(key)) << key;
+    const std::string support = e.value("support", "");
+    EXPECT_TRUE(support == "points" || support == "floor_at_foot" || support == "hidden" ||
+                support == "none")
+        << support;
   }
   EXPECT_EQ(loadCloud((out / "segments.pcd").string()).size(), s.current.size());
   // Saved without VIEWPOINT: no disappearance is checked, every reference label is 0.

@@ -91,7 +91,8 @@ double lowestHeight(const Points3d& points) {
 // floor with nothing under it, one standing behind a low wall that hides its lower half.
 // Their points alone look alike: none comes down to the floor. The first rests on it (the
 // sweep saw no free space beneath it and the floor at its foot), the second does not (seen
-// through beneath), nor the third (no floor observed at its foot).
+// through beneath), the third does (the space beneath it is hidden behind the wall and the
+// sweep returned nothing there).
 TEST(SparseFarViews, ABoxWhoseLowestLineWasTakenForFloorRestsOnIt) {
   const Eigen::Vector3d half(0.35, 0.35, 0.3);
   const SweptWorld w({box({6.0, 0.0, 0.3}, half, 1), box({6.0, 1.6, 0.8}, half, 2),
@@ -103,8 +104,10 @@ TEST(SparseFarViews, ABoxWhoseLowestLineWasTakenForFloorRestsOnIt) {
   struct Case {
     int id;
     bool rests;
+    FloorSupport support;
   };
-  for (const Case c : {Case{1, true}, Case{2, false}, Case{3, false}}) {
+  for (const Case c : {Case{1, true, FloorSupport::kFloorAtFoot},
+                       Case{2, false, FloorSupport::kNone}, Case{3, true, FloorSupport::kHidden}}) {
     const Points3d seen = w.above(c.id, cut);
     ASSERT_GE(seen.size(), 20u) << "box " << c.id;
     const std::vector<int> labels = w.labels(c.id, cut);
@@ -115,6 +118,7 @@ TEST(SparseFarViews, ABoxWhoseLowestLineWasTakenForFloorRestsOnIt) {
     EXPECT_FALSE(by_height.standsOnFloor(seen)) << "box " << c.id;
     EXPECT_EQ(bounds.rests_on_floor, c.rests) << "box " << c.id;
     EXPECT_EQ(bounds.standsOnFloor(seen), c.rests) << "box " << c.id;
+    EXPECT_EQ(bounds.support, c.support) << "box " << c.id;
     if (c.rests) {
       EXPECT_NEAR(bounds.lowest_height_m, lowestHeight(seen), 1e-9);
     }
@@ -211,4 +215,107 @@ TEST(SparseFarViews, ARoundSectionIsCentredByItsCurvature) {
   EXPECT_LT(circles_error, 0.03);
   EXPECT_LT(radius_error, 0.07 * r);
   EXPECT_LT(radius_error, silhouette_error);
+}
+
+// Two boxes 4 m away whose lowest returns lie far above the floor: one standing behind a low
+// wall that hides its lower half (nothing the sweep returned lies beneath it; the space
+// there is hidden), one standing on a table whose top the sweep saw. The first rests on the
+// floor and is fitted down to it (its bottom within 5 cm of the floor, measured 1 mm; its
+// top within 8 cm of the true 0.7 m: 0.65 m, above its highest return, 0.57 m); fitted to
+// its points alone it stops at the wall's shadow, 0.3 m or more above the floor. The second
+// stays on the table: its returns do not rest on the floor, and its fit's bottom lies above
+// the table top.
+TEST(SparseFarViews, AnObjectWhoseUndersideIsHiddenStandsOnTheFloor) {
+  const double table_top = 0.4;
+  const SweptWorld w({box({4.0, 0.0, 0.35}, Eigen::Vector3d(0.3, 0.3, 0.35), 1),
+                      box({4.0, -1.8, table_top + 0.2}, Eigen::Vector3d(0.2, 0.2, 0.2), 2),
+                      box({3.0, 0.0, 0.2}, Eigen::Vector3d(0.05, 0.8, 0.2), 3),
+                      box({4.0, -1.8, table_top - 0.02}, Eigen::Vector3d(0.45, 0.45, 0.02), 4)});
+  SuperquadricParams params;
+  params.bounded_fit = true;
+  const ShapeRetrieval retrieval(params);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  const auto bottom = [&](const Superquadric& sq) { return sq.position.z() - extentAlong(sq, up); };
+  const auto top = [&](const Superquadric& sq) { return sq.position.z() + extentAlong(sq, up); };
+  struct Fits {
+    FitBounds bounds;
+    Superquadric fitted, alone;
+    double lowest = 0.0;
+  };
+  const auto fitBox = [&](int id) {
+    Fits f;
+    const Points3d seen = w.above(id, 0.0);
+    EXPECT_GE(seen.size(), 30u) << "box " << id;
+    const std::vector<int> labels = w.labels(id, 0.0);
+    f.bounds = fitBoundsFor(seen, id, w.source(&labels), params);
+    FitBounds floating = f.bounds;
+    floating.rests_on_floor = false;
+    const Points3d coarse = subsample(seen, static_cast<int>(seen.size() / 8) + 11);
+    const auto fitted = retrieval.recover(seen, coarse, id, &f.bounds);
+    const auto alone = retrieval.recover(seen, coarse, id, &floating);
+    EXPECT_EQ(fitted.size(), 1u) << "box " << id;
+    EXPECT_EQ(alone.size(), 1u) << "box " << id;
+    if (!fitted.empty()) f.fitted = fitted.front();
+    if (!alone.empty()) f.alone = alone.front();
+    f.lowest = lowestHeight(seen);
+    return f;
+  };
+  const Fits behind = fitBox(1);
+  const Fits on_table = fitBox(2);
+  std::printf(
+      "behind the wall: lowest return %.3f m, fit %.3f-%.3f m, points alone from %.3f m; on the "
+      "table: lowest return %.3f m, fit from %.3f m\n",
+      behind.lowest, bottom(behind.fitted), top(behind.fitted), bottom(behind.alone),
+      on_table.lowest, bottom(on_table.fitted));
+  // Neither comes down to the floor by its own points.
+  EXPECT_GT(behind.lowest, 0.25);
+  EXPECT_GT(on_table.lowest, table_top);
+  EXPECT_TRUE(behind.bounds.rests_on_floor);
+  EXPECT_EQ(behind.bounds.support, FloorSupport::kHidden);
+  EXPECT_TRUE(behind.bounds.hidden_beneath);
+  EXPECT_NEAR(bottom(behind.fitted), 0.0, 0.05);
+  EXPECT_NEAR(top(behind.fitted), 0.7, 0.08);
+  EXPECT_GT(bottom(behind.alone), 0.3);
+  EXPECT_FALSE(on_table.bounds.rests_on_floor);
+  EXPECT_EQ(on_table.bounds.support, FloorSupport::kNone);
+  EXPECT_GT(bottom(on_table.fitted), table_top - 0.03);
+}
+
+// The hidden lower part of a segment taken to stand on the floor through hidden space: a
+// strip of points 0.5-0.7 m high (two scan lines 0.2 m apart, 40 points each) gains its
+// lowest line repeated down to the floor, one line's band (twice the point spacing: 0.04 m
+// here, the lines being sampled every 2 cm) at a time: 12 copies of 40 points from 0.46 m
+// down to 0.02 m, thinned evenly to the strip's own density per height (80 points over
+// 0.2 m: 200 over the hidden 0.5 m). Nothing for a segment held up by the floor seen at its
+// foot, nor for a part that does not hold the segment's bottom.
+TEST(SparseFarViews, AHiddenLowerPartContinuesTheLowestBandDownToTheFloor) {
+  Points3d strip;
+  for (double z : {0.5, 0.7})
+    for (int i = 0; i < 40; ++i) strip.emplace_back(3.0, -0.4 + 0.02 * i, z);
+  FitBounds b;
+  b.has_floor = true;
+  b.floor_band_m = kBand;
+  b.margin_m = kMargin;
+  b.params.support_fraction = 0.5;
+  b.rests_on_floor = true;
+  b.lowest_height_m = 0.5;
+  b.support = FloorSupport::kHidden;
+  b.hidden_beneath = true;
+  const Points3d below = extrudedToFloor(strip, b);
+  ASSERT_EQ(below.size(), 200u);
+  double lowest = 1.0, highest = 0.0;
+  for (const auto& p : below) {
+    lowest = std::min(lowest, p.z());
+    highest = std::max(highest, p.z());
+    EXPECT_NEAR(p.x(), 3.0, 1e-12);
+  }
+  EXPECT_NEAR(highest, 0.46, 1e-9);
+  EXPECT_NEAR(lowest, 0.02, 1e-9);
+  FitBounds at_foot = b;
+  at_foot.support = FloorSupport::kFloorAtFoot;
+  at_foot.hidden_beneath = false;
+  EXPECT_TRUE(extrudedToFloor(strip, at_foot).empty());
+  FitBounds higher_part = b;
+  higher_part.lowest_height_m = 0.2;  // the segment's bottom lies lower than this part's
+  EXPECT_TRUE(extrudedToFloor(strip, higher_part).empty());
 }

@@ -24,9 +24,15 @@
 //    left of a box standing there may be a line or two above the floor. Such an object rests
 //    on the floor when the sweep saw no free space beneath its lowest points (not seen
 //    through below it: no table's legs, no gap under a shelf) and, at the foot of most of
-//    them, returns on the floor itself (what the lowest line hit next). An object whose
-//    lower part is hidden behind another one has no floor observed at its foot: nothing
-//    says it comes down, and it is fitted to what was seen.
+//    them, returns on the floor itself (what the lowest line hit next).
+//  - Hidden beneath. An object whose lower part is hidden behind another one in front of
+//    it, or lies outside what the sensor looked at (the field of view of a tilting laser
+//    reaches lower ahead than to the side), has no floor observed at its foot. Objects do
+//    not float: when the sweep saw no free space beneath its lowest points, the space there
+//    is hidden (behind what the sweep saw, or never looked at) and the sweep returned
+//    nothing beneath them (no table top, no shelf it could stand on), it rests on the floor
+//    all the same. The fit then reaches down to the floor through the hidden space (which
+//    no outside point bounds); superquadrics.json says which support was assumed.
 //
 // The support function of the superquadric F = ((x/a1)^(2/e2) + (y/a2)^(2/e2))^(e2/e1) +
 // (z/a3)^(2/e1) = 1 in a unit direction v of its frame is the dual of its nested norm:
@@ -74,6 +80,12 @@ struct FitBounds {
   /// bottom) stands on the floor.
   bool rests_on_floor = false;
   double lowest_height_m = 0.0;
+  /// What holds the segment up (types.h): its points, the floor at its foot, or the floor
+  /// taken through the hidden space beneath it; none.
+  FloorSupport support = FloorSupport::kNone;
+  /// It rests on the floor through hidden space (restsOnFloor() found kHidden), whether or
+  /// not its points also come down to the floor: the part that holds its bottom does not.
+  bool hidden_beneath = false;
 
   bool empty() const { return outside.empty() && !has_floor; }
   /// Height of p above the floor [m].
@@ -129,12 +141,17 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
 /// point spacing, above its lowest; at most kRestColumns of them), at most kMaxSeenBeneath
 /// have space the sweep saw through (`bounds.view`, margin `bounds.margin_m`) straight below
 /// them, sampled every margin (at least 2 cm) down to the band, and at least kMinFloorAtFoot
-/// have a point of `floor_points` (sweep returns within the band plus the margin of the
-/// floor) within the margin or twice the point spacing of them on the floor plan. False
-/// without a floor or a view. `lowest_height_m` (optional) receives the height of the
-/// segment's lowest point above the floor.
-bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, double spacing,
-                  const FitBounds& bounds, double* lowest_height_m = nullptr);
+/// either have a point of `floor_points` (sweep returns within the band plus the margin of the
+/// floor) within the margin or twice the point spacing of them on the floor plan (the floor
+/// at the foot), or are hidden beneath: no sample below them is seen through by its own
+/// range-image cell, some sample lies behind what the sweep saw there or where it did not
+/// look, and no point of `others` (the sweep's other returns above the floor) lies below
+/// them within that reach on the floor plan. False without a floor or a view.
+/// `lowest_height_m` (optional) receives the height of the segment's lowest point above the
+/// floor; `support` (optional) receives which of the two held for most of the columns.
+bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, const Points3d& others,
+                  double spacing, const FitBounds& bounds, double* lowest_height_m = nullptr,
+                  FloorSupport* support = nullptr);
 constexpr double kRestBand = 0.1;
 constexpr int kRestColumns = 32;
 constexpr double kMaxSeenBeneath = 0.25;
@@ -210,6 +227,18 @@ constexpr double kThinAxisDeg = 25.0;
 /// How round the horizontal section of an upright `sq` is: 0 for a cornered section
 /// (exponent 0.1) to 1 for a round one (exponent 1 or more); 0 when no axis is along `up`.
 double horizontalRoundness(const Superquadric& sq, const Eigen::Vector3d& up);
+
+/// The hidden lower part of a segment taken to stand on the floor through hidden space
+/// (FitBounds::hidden_beneath; `points`, the segment or the part of it that holds its
+/// bottom, not coming down to the floor themselves): its lowest band
+/// of points (kRestBand of their height or twice their spacing thick) repeated straight down,
+/// one band's thickness at a time, to the floor, and thinned evenly to as many points per
+/// height as `points` have (a scanner's lines lie farther apart than its points along
+/// them; the seen part keeps its weight): a standing object's section continues below
+/// what was seen (as its hidden side mirrors its visible one). Without them eq. 3's volume
+/// factor and the points keep the fit short of the floor the support draws it to. Empty
+/// otherwise.
+Points3d extrudedToFloor(const Points3d& points, const FitBounds& bounds);
 
 /// The column of `r` nearest to `up` (largest |r.col(k) . up|).
 int axisNearest(const Eigen::Matrix3d& r, const Eigen::Vector3d& up);
