@@ -27,15 +27,28 @@ constexpr double kEndBand = 0.02;
 constexpr double kGapStepM = 0.01;
 }  // namespace
 
-bool FitBounds::standsOnFloor(const Points3d& points) const {
-  if (!has_floor || points.empty()) return false;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+void FitBounds::heightRange(const Points3d& points, double* lo, double* hi) const {
+  *lo = std::numeric_limits<double>::infinity();
+  *hi = -*lo;
   for (const auto& p : points) {
     const double h = heightAboveFloor(p);
-    lo = std::min(lo, h);
-    hi = std::max(hi, h);
+    *lo = std::min(*lo, h);
+    *hi = std::max(*hi, h);
   }
-  if (lo <= floor_band_m + params.support_fraction * (hi - lo)) return true;
+}
+
+bool FitBounds::comesDownToFloor(const Points3d& points) const {
+  if (!has_floor || points.empty()) return false;
+  double lo, hi;
+  heightRange(points, &lo, &hi);
+  return lo <= floor_band_m + params.support_fraction * (hi - lo);
+}
+
+bool FitBounds::standsOnFloor(const Points3d& points) const {
+  if (!has_floor || points.empty()) return false;
+  if (comesDownToFloor(points)) return true;
+  double lo, hi;
+  heightRange(points, &lo, &hi);
   return rests_on_floor && lo <= lowest_height_m + std::max(floor_band_m, margin_m);
 }
 
@@ -119,11 +132,7 @@ FitBounds fitBoundsFor(const Points3d& segment, int segment_id, const FitBoundsS
   bounds.rests_on_floor = restsOnFloor(segment, floor_points, others, spacing, bounds,
                                        &bounds.lowest_height_m, &bounds.support);
   bounds.hidden_beneath = bounds.support == FloorSupport::kHidden;
-  if (bounds.has_floor) {
-    FitBounds by_points = bounds;
-    by_points.rests_on_floor = false;
-    if (by_points.standsOnFloor(segment)) bounds.support = FloorSupport::kPoints;
-  }
+  if (bounds.comesDownToFloor(segment)) bounds.support = FloorSupport::kPoints;
   return bounds;
 }
 

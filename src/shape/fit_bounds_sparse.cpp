@@ -25,11 +25,8 @@ bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, const P
                   FloorSupport* support) {
   if (support) *support = FloorSupport::kNone;
   if (!bounds.has_floor || !bounds.view || segment.empty()) return false;
-  double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (const auto& p : segment) {
-    low = std::min(low, bounds.heightAboveFloor(p));
-    high = std::max(high, bounds.heightAboveFloor(p));
-  }
+  double low, high;
+  bounds.heightRange(segment, &low, &high);
   if (lowest_height_m) *lowest_height_m = low;
   const double band_top = low + std::max(2.0 * spacing, kRestBand * (high - low));
   Points3d bottom;
@@ -94,18 +91,13 @@ bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, const P
 }
 
 Points3d extrudedToFloor(const Points3d& points, const FitBounds& bounds) {
-  if (!bounds.hidden_beneath || !bounds.rests_on_floor || !bounds.has_floor || points.size() < 2)
-    return {};
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const auto& p : points) {
-    lo = std::min(lo, bounds.heightAboveFloor(p));
-    hi = std::max(hi, bounds.heightAboveFloor(p));
-  }
   // Points that come down to the floor themselves, or that do not hold the segment's bottom
-  // (a part above another one), have no hidden part below them.
-  if (lo <= bounds.floor_band_m + bounds.params.support_fraction * (hi - lo) ||
-      lo > bounds.lowest_height_m + std::max(bounds.floor_band_m, bounds.margin_m))
+  // (a part above another one: it does not stand on the floor), have no hidden part below.
+  if (!bounds.hidden_beneath || points.size() < 2 || bounds.comesDownToFloor(points) ||
+      !bounds.standsOnFloor(points))
     return {};
+  double lo, hi;
+  bounds.heightRange(points, &lo, &hi);
   const double step = std::max(2.0 * medianSpacing(points), kRestBand * (hi - lo));
   if (!(step > 0.0)) return {};
   Points3d band;

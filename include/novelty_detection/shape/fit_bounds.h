@@ -90,6 +90,11 @@ struct FitBounds {
   bool empty() const { return outside.empty() && !has_floor; }
   /// Height of p above the floor [m].
   double heightAboveFloor(const Eigen::Vector3d& p) const { return up.dot(p) + floor_offset; }
+  /// The lowest and highest height of `points` above the floor (+inf, -inf when empty).
+  void heightRange(const Points3d& points, double* lo, double* hi) const;
+  /// Whether `points` come down to the floor themselves: their lowest within floor_band_m +
+  /// support_fraction * their extent along up above it (the first clause of standsOnFloor()).
+  bool comesDownToFloor(const Points3d& points) const;
   /// Whether `points` stand on the floor: their lowest lies within floor_band_m +
   /// support_fraction * their extent along up above it, or they hold the bottom of a segment
   /// that rests on the floor.
