@@ -3,6 +3,7 @@
 #include "common/disjoint_sets.h"
 #include "common/knn.h"
 #include "novelty_detection/segmentation/depth_jumps.h"
+#include "novelty_detection/segmentation/scan_lines.h"
 
 #include <Eigen/Geometry>
 
@@ -234,6 +235,31 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     return beamsPastBox(cloud, novel_mask, sweep.origin, box.min(), box.max(), kSeenGapBeams) >=
            kSeenGapBeams;
   };
+  // Stacked pieces: whether, seen from the sweep's origin, one lies wholly above the other
+  // (pieces one behind the other overlap in elevation) by at most kLineGapSteps of the
+  // sweep's steps between scan lines at their bearing.
+  std::optional<ScanLineSpacing> lines;  // measured when first needed
+  std::vector<Eigen::Vector2f> elevations;
+  const auto lineGap = [&](std::size_t a, std::size_t b) {
+    if (!lines) {
+      lines.emplace(cloud, nullptr, sweep.origin);
+      elevations.resize(np);
+      for (std::size_t c = 0; c < np; ++c) {
+        Eigen::Vector2f& e = elevations[c];
+        e << std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity();
+        for (int i : pieces[c]) {
+          const float el = static_cast<float>(
+              ScanLineSpacing::elevationOf(cloud[i].getVector3fMap(), sweep.origin));
+          e = Eigen::Vector2f(std::min(e.x(), el), std::max(e.y(), el));
+        }
+      }
+    }
+    const std::size_t below = hi[a].z() < lo[b].z() ? a : b, above = below == a ? b : a;
+    const Eigen::AlignedBox3f box = gapBox(a, b);
+    const double step = lines->stepAt(ScanLineSpacing::azimuthOf(box.center(), sweep.origin));
+    const double apart = elevations[above].x() - elevations[below].y();
+    return step > 0.0 && apart > 0.0 && apart <= kLineGapSteps * step;
+  };
   // Only pieces that could each stand as a segment can be two objects.
   const std::size_t least = static_cast<std::size_t>(std::max(1, params.min_segment_points));
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
@@ -245,7 +271,16 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     for (std::size_t b = a + 1; b < np; ++b) {
       const Eigen::Vector3f sep =
           (lo[b] - hi[a]).cwiseMax(lo[a] - hi[b]).cwiseMax(Eigen::Vector3f::Zero());
-      if (sep.norm() > gap) continue;
+      if (sep.norm() > gap) {
+        // Farther apart than the link radius allows: one object still when one piece stands
+        // above the other (footprints within the floor gap) across no more than a gap
+        // between scan lines that the sweep did not see through (at low range noise the
+        // link radius is the spacing along a line).
+        if (sep.z() > 0.f && sep.head<2>().norm() <= floor_gap && can_look && lineGap(a, b) &&
+            !seenThrough(a, b))
+          sets.unite(static_cast<int>(a), static_cast<int>(b));
+        continue;
+      }
       // Same Gaussian, footprints close: one object seen through the gaps between lines,
       // unless the pieces stand side by side, each large enough to be a segment, and the
       // sweep's beams passed between them (two objects a hand apart, one Gaussian over both).

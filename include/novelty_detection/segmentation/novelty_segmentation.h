@@ -147,9 +147,19 @@ std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask
 /// vertical gap within merge_gap_factor link radii) merge too: one object cut by a gap between tilt
 /// lines; but when the sweep's origin is known and kSeenGapBeams or more of its beams (not novel
 /// ones) end in or pass through the gap between them, the sweep saw that gap: two things one above
-/// the other (a person below a stray difference on the wall), not merged. Segments under
-/// min_segment_points are dropped; largest first. `link_radius_m` gets the link radius.
+/// the other (a person below a stray difference on the wall), not merged. With the origin known,
+/// pieces one above the other (footprints within merge_floor_gap_factor link radii) farther
+/// apart than merge_gap_factor link radii merge too when, seen from the origin, one lies wholly
+/// above the other by at most kLineGapSteps of the sweep's steps between scan lines at that
+/// bearing (ScanLineSpacing) and the sweep did not see through the gap: at low range noise
+/// the link radius is the spacing along a line, a tenth of the gap between lines, and a small
+/// far object would come apart line by line. Segments under min_segment_points are dropped;
+/// largest first. `link_radius_m` gets the link radius.
 constexpr std::size_t kSeenGapBeams = 3;
+/// The widest gap between stacked pieces that is one gap between scan lines, in line steps:
+/// one step, with room for the step's change across a bearing bin and an object's surface
+/// sloping away from the sensor; a line missing between them (two steps) is not bridged.
+constexpr double kLineGapSteps = 1.5;
 /// Two groups seen one in front of the other are two objects only when no point of one
 /// stands within this many link radii of the other's on the floor plan: a box's side seen
 /// past its corner, or an arm past a trunk, stands within about one (1.45 at most over the
