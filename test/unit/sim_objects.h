@@ -1,7 +1,9 @@
 // The points of a simulated scene's changed objects, as the shape tests fit them. Test-only.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 
 #include "novelty_detection/pipeline.h"
@@ -22,6 +24,26 @@ inline Result detectLabels(const sim::ScenePair& scene, Params params = Params()
   Pipeline pipeline(params);
   pipeline.setReference(scene.reference);
   return pipeline.detect(scene.current);
+}
+
+/// The best IoU of any segment of `labels` (one per point of scene.current, 0: none) with
+/// changed object `id`; `points`, when given, gets the object's point count.
+inline double bestSegmentIou(const sim::ScenePair& scene, const std::vector<int>& labels, int id,
+                             long* points = nullptr) {
+  std::map<int, long> common, size;
+  long object = 0;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    object += scene.current_labels[i] == id;
+    if (labels[i] > 0) {
+      ++size[labels[i]];
+      common[labels[i]] += scene.current_labels[i] == id;
+    }
+  }
+  if (points) *points = object;
+  double best = 0.0;
+  for (const auto& [label, n] : size)
+    best = std::max(best, static_cast<double>(common[label]) / (object + n - common[label]));
+  return best;
 }
 
 /// The current sweep's points on changed object `id` (its ground-truth label).

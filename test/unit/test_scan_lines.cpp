@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <random>
 #include <vector>
 
@@ -191,20 +190,10 @@ double bestIouOf(int index, std::uint64_t seed, double noise_var, sim::NoveltyKi
   for (const auto& o : s.objects)
     if (o.kind == kind) id = o.id;
   if (id == 0) return -1.0;
-  const Result r = sim_objects::detectLabels(s);
-  std::map<int, long> common, size;
   long object = 0;
-  for (std::size_t i = 0; i < r.labels.size(); ++i) {
-    object += s.current_labels[i] == id;
-    if (r.labels[i] > 0) {
-      ++size[r.labels[i]];
-      common[r.labels[i]] += s.current_labels[i] == id;
-    }
-  }
+  const double best =
+      sim_objects::bestSegmentIou(s, sim_objects::detectLabels(s).labels, id, &object);
   *points = static_cast<int>(object);
-  double best = 0.0;
-  for (const auto& [label, n] : size)
-    best = std::max(best, static_cast<double>(common[label]) / (object + n - common[label]));
   return best;
 }
 

@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <random>
 #include <vector>
 
@@ -182,20 +181,7 @@ TEST(TurnedSurfaces, ASwungLeafOfTheSuiteReachesItsHinge) {
   const auto bestIou = [&](bool rule) {
     Params params;
     params.segmentation.turned_surfaces = rule;
-    const Result r = sim_objects::detectLabels(s, params);
-    std::map<int, long> common, size;
-    long leaf = 0;
-    for (std::size_t i = 0; i < r.labels.size(); ++i) {
-      leaf += s.current_labels[i] == door;
-      if (r.labels[i] > 0) {
-        ++size[r.labels[i]];
-        common[r.labels[i]] += s.current_labels[i] == door;
-      }
-    }
-    double best = 0.0;
-    for (const auto& [id, n] : size)
-      best = std::max(best, static_cast<double>(common[id]) / (leaf + n - common[id]));
-    return best;
+    return sim_objects::bestSegmentIou(s, sim_objects::detectLabels(s, params).labels, door);
   };
   const double with = bestIou(true), without = bestIou(false);
   std::printf("leaf IoU %.3f with the rule, %.3f without\n", with, without);
