@@ -242,7 +242,7 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
   std::vector<Eigen::Vector2f> elevations;
   const auto lineGap = [&](std::size_t a, std::size_t b) {
     if (!lines) {
-      lines.emplace(cloud, nullptr, sweep.origin);
+      lines.emplace(cloud, sweep.origin);
       elevations.resize(np);
       for (std::size_t c = 0; c < np; ++c) {
         Eigen::Vector2f& e = elevations[c];

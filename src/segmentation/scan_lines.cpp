@@ -46,9 +46,8 @@ double ScanLineSpacing::elevationOf(const Eigen::Vector3f& p, const Eigen::Vecto
   return std::atan2(d.z(), d.head<2>().norm());
 }
 
-ScanLineSpacing::ScanLineSpacing(const Cloud& cloud, const Indices* points,
-                                 const Eigen::Vector3f& origin)
-    : cloud_(&cloud), points_(points), origin_(origin) {}
+ScanLineSpacing::ScanLineSpacing(const Cloud& cloud, const Eigen::Vector3f& origin)
+    : cloud_(&cloud), origin_(origin) {}
 
 double ScanLineSpacing::stepAt(double azimuth) const {
   if (!cloud_ || !std::isfinite(azimuth)) return 0.0;
@@ -61,19 +60,14 @@ double ScanLineSpacing::stepAt(double azimuth) const {
   const Eigen::Vector2d u_lo(std::cos(lo), std::sin(lo)), u_hi(std::cos(hi), std::sin(hi));
   const Eigen::Vector2d u_mid(std::cos(mid), std::sin(mid));
   std::vector<float> elevations;
-  const auto add = [&](const PointT& q) {
+  for (const PointT& q : *cloud_) {
     const Eigen::Vector3f p = q.getVector3fMap();
-    if (!p.allFinite()) return;
+    if (!p.allFinite()) continue;
     const Eigen::Vector2d v = (p - origin_).head<2>().cast<double>();
     if (v.dot(u_mid) <= 0.0 || u_lo.x() * v.y() - u_lo.y() * v.x() < 0.0 ||
         v.x() * u_hi.y() - v.y() * u_hi.x() <= 0.0)
-      return;
+      continue;
     elevations.push_back(static_cast<float>(elevationOf(p, origin_)));
-  };
-  if (points_) {
-    for (int i : *points_) add((*cloud_)[i]);
-  } else {
-    for (const PointT& q : *cloud_) add(q);
   }
   const float step = lineStep(&elevations);
   steps_.emplace(bin, step);

@@ -37,19 +37,27 @@ void FitBounds::heightRange(const Points3d& points, double* lo, double* hi) cons
   }
 }
 
+bool FitBounds::comesDownFrom(double lo, double hi) const {
+  return lo <= floor_band_m + params.support_fraction * (hi - lo);
+}
+
+bool FitBounds::standsFrom(double lo, double hi) const {
+  return comesDownFrom(lo, hi) ||
+         (rests_on_floor && lo <= lowest_height_m + std::max(floor_band_m, margin_m));
+}
+
 bool FitBounds::comesDownToFloor(const Points3d& points) const {
   if (!has_floor || points.empty()) return false;
   double lo, hi;
   heightRange(points, &lo, &hi);
-  return lo <= floor_band_m + params.support_fraction * (hi - lo);
+  return comesDownFrom(lo, hi);
 }
 
 bool FitBounds::standsOnFloor(const Points3d& points) const {
   if (!has_floor || points.empty()) return false;
-  if (comesDownToFloor(points)) return true;
   double lo, hi;
   heightRange(points, &lo, &hi);
-  return rests_on_floor && lo <= lowest_height_m + std::max(floor_band_m, margin_m);
+  return standsFrom(lo, hi);
 }
 
 double extentAlong(const Superquadric& sq, const Eigen::Vector3d& u) {

@@ -93,11 +93,10 @@ bool restsOnFloor(const Points3d& segment, const Points3d& floor_points, const P
 Points3d extrudedToFloor(const Points3d& points, const FitBounds& bounds) {
   // Points that come down to the floor themselves, or that do not hold the segment's bottom
   // (a part above another one: it does not stand on the floor), have no hidden part below.
-  if (!bounds.hidden_beneath || points.size() < 2 || bounds.comesDownToFloor(points) ||
-      !bounds.standsOnFloor(points))
-    return {};
+  if (!bounds.hidden_beneath || !bounds.has_floor || points.size() < 2) return {};
   double lo, hi;
   bounds.heightRange(points, &lo, &hi);
+  if (bounds.comesDownFrom(lo, hi) || !bounds.standsFrom(lo, hi)) return {};
   const double step = std::max(2.0 * medianSpacing(points), kRestBand * (hi - lo));
   if (!(step > 0.0)) return {};
   Points3d band;

@@ -92,7 +92,7 @@ Sweep tiltingSweep(const Eigen::Vector3d& origin, double step_deg, int lines,
 TEST(ScanLineSpacing, IsTheTiltStepPerBearing) {
   const Eigen::Vector3d origin(0.0, 0.0, 0.6);
   const Sweep s = tiltingSweep(origin, 2.5, 30, {}, 0.01, 1);
-  const ScanLineSpacing lines(s.cloud, nullptr, origin.cast<float>());
+  const ScanLineSpacing lines(s.cloud, origin.cast<float>());
   EXPECT_NEAR(lines.stepAt(0.0) / kDeg, 2.5, 0.05);
   EXPECT_NEAR(lines.stepAt(0.3) / kDeg, 2.5 * std::cos(0.3), 0.1);
   EXPECT_NEAR(lines.stepAt(-0.6) / kDeg, 2.5 * std::cos(0.6), 0.15);

@@ -30,10 +30,10 @@ class ScanLineSpacing {
   static constexpr int kMinBinPoints = 8;
 
   ScanLineSpacing() = default;
-  /// Over the finite points cloud[*points] (every point of `cloud` when `points` is null)
-  /// seen from `origin`. Both are referenced, not copied: they must outlive this object. A
-  /// bin's step is measured when first asked for (one pass over the points) and kept.
-  ScanLineSpacing(const Cloud& cloud, const Indices* points, const Eigen::Vector3f& origin);
+  /// Over the finite points of `cloud` seen from `origin`. The cloud is referenced, not
+  /// copied: it must outlive this object. A bin's step is measured when first asked for (one
+  /// pass over the points) and kept.
+  ScanLineSpacing(const Cloud& cloud, const Eigen::Vector3f& origin);
 
   /// The elevation step between successive scan lines at bearing `azimuth` [rad] (0 when
   /// unknown).
@@ -45,7 +45,6 @@ class ScanLineSpacing {
 
  private:
   const Cloud* cloud_ = nullptr;
-  const Indices* points_ = nullptr;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
   mutable std::unordered_map<int, float> steps_;  ///< per azimuth bin measured so far
 };

@@ -95,6 +95,10 @@ struct FitBounds {
   /// Whether `points` come down to the floor themselves: their lowest within floor_band_m +
   /// support_fraction * their extent along up above it (the first clause of standsOnFloor()).
   bool comesDownToFloor(const Points3d& points) const;
+  /// comesDownToFloor() and standsOnFloor() of points whose height range heightRange() gave
+  /// (a floor assumed): one pass over the points answers both.
+  bool comesDownFrom(double lo, double hi) const;
+  bool standsFrom(double lo, double hi) const;
   /// Whether `points` stand on the floor: their lowest lies within floor_band_m +
   /// support_fraction * their extent along up above it, or they hold the bottom of a segment
   /// that rests on the floor.
