@@ -182,7 +182,10 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
   centre += 0.5 * (median(left_depth) + median(right_depth)) * v;
   // A round section's centre from its curvature, where it lies plausibly behind the middle
   // (a flat view has no curvature to go by: a leaf maps onto itself).
-  round_section = round_section && !isFlatView(principalFrame(points), bounds.noise_m);
+  Eigen::Vector3d origin;
+  const bool origin_known = bounds.originKnown(&origin);
+  round_section = round_section && !isFlatView(principalFrame(points), bounds.noise_m, kFlatRatio,
+                                               origin_known ? &origin : nullptr);
   Eigen::Vector3d circles;
   const double width = u_hi - u_lo;
   if (round_section && sectionCirclesCentre(points, bounds.up, centre, &circles) &&
@@ -290,14 +293,27 @@ double spreadAcross(const PrincipalFrame& f, double noise_m) {
 }
 }  // namespace
 
-bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio) {
-  return spreadAcross(f, noise_m) <= ratio * std::sqrt(f.eigenvalues(1));
+bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio,
+                const Eigen::Vector3d* origin) {
+  if (!(spreadAcross(f, noise_m) <= ratio * std::sqrt(f.eigenvalues(1)))) return false;
+  if (!origin) return true;
+  const Eigen::Vector3d ray = f.centroid - *origin;
+  const double range = ray.norm();
+  return !(range > 0.0) ||
+         std::abs(f.axes.col(0).dot(ray)) > range * std::sin(kScanPlaneDeg * M_PI / 180.0);
 }
 
-bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq) {
+bool FitBounds::originKnown(Eigen::Vector3d* origin) const {
+  if (!view || view->empty()) return false;
+  *origin = view->origin().cast<double>();
+  return true;
+}
+
+bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq,
+                    const Eigen::Vector3d* origin) {
   if (points.size() < 3 || !sq) return false;
   const PrincipalFrame f = principalFrame(points);
-  if (!isFlatView(f, noise_m)) return false;
+  if (!isFlatView(f, noise_m, kFlatRatio, origin)) return false;
   const double across = spreadAcross(f, noise_m);
   const Eigen::Vector3d normal = f.axes.col(0);
   const Eigen::Vector3d& centroid = f.centroid;

@@ -297,3 +297,48 @@ TEST(FitBounds, OnlyFlatViewsCutTheirFitsDepth) {
   EXPECT_FALSE(thinToFlatView(half, 0.01, 0.005, &cylinder));
   EXPECT_DOUBLE_EQ(cylinder.a.x(), 0.3);
 }
+
+// One scan line is no flat view: a tilting laser's line over the corner of a box lies in a
+// plane through the sensor (range noise moves its returns along their rays, within that
+// plane), the plane of the line and not a face of the box. Told the origin, the rule leaves
+// the fit's height alone; a face seen at an angle from the same origin is still cut.
+TEST(FitBounds, OneScanLineIsNoFlatView) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> range_noise(0.0, 0.032);
+  const Eigen::Vector3d origin(0.0, 0.0, 0.6);
+  // One line 0.31 m below the sensor, 5.6 m away, across two faces of a box at 45 degrees.
+  const double elevation = std::atan2(-0.31, 5.6);
+  Points3d line;
+  for (int k = 0; k < 34; ++k) {
+    const double s = -0.4 + 0.8 * k / 33.0;  // along the faces: a corner at s = 0
+    const Eigen::Vector3d on_box(5.6 + 0.3 * std::abs(s), s, 0.0);
+    const double azimuth = std::atan2(on_box.y(), on_box.x());
+    const Eigen::Vector3d ray(std::cos(elevation) * std::cos(azimuth),
+                              std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+    const double range = on_box.head<2>().norm() / std::cos(elevation);
+    line.push_back(origin + (range + range_noise(rng)) * ray);
+  }
+  // A box fitted upright to it: 0.29 m tall to the floor.
+  const Superquadric box = makeSq({0.3, 0.4, 0.145}, 0.1, 0.1, {0, 0, 0}, {5.75, 0.0, 0.145});
+  Superquadric without_origin = box, with_origin = box;
+  // Without the origin the line's plane (horizontal) passes for a face seen square on, and
+  // the box is cut to a sheet 1 cm thick: the flattened fits the rule had made.
+  EXPECT_TRUE(thinToFlatView(line, 0.032, 0.005, &without_origin));
+  EXPECT_LT(without_origin.a.z(), 0.01);
+  EXPECT_FALSE(thinToFlatView(line, 0.032, 0.005, &with_origin, &origin));
+  EXPECT_DOUBLE_EQ(with_origin.a.z(), 0.145);
+  // A leaf's face 2 m wide and 2 m tall seen from the same origin 10 degrees off its plane:
+  // a flat view.
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::Vector3d along(std::cos(10.0 * M_PI / 180.0), std::sin(10.0 * M_PI / 180.0), 0.0);
+  const Eigen::Vector3d normal(-along.y(), along.x(), 0.0);
+  const Eigen::Vector3d centre = origin + Eigen::Vector3d(4.0, 0.0, 0.4);
+  Points3d face;
+  for (int k = 0; k < 500; ++k)
+    face.push_back(centre + along * u(rng) + Eigen::Vector3d(0, 0, u(rng)) +
+                   normal * 0.01 * range_noise(rng) / 0.032);
+  Superquadric leaf = makeSq({1.0, 0.3, 1.0}, 0.1, 0.1, {std::atan2(along.y(), along.x()), 0, 0},
+                             centre + 0.3 * normal);
+  EXPECT_TRUE(thinToFlatView(face, 0.01, 0.005, &leaf, &origin));
+  EXPECT_LT(leaf.a.y(), 0.03);
+}

@@ -88,6 +88,9 @@ struct FitBounds {
   bool hidden_beneath = false;
 
   bool empty() const { return outside.empty() && !has_floor; }
+  /// The sweep's origin (the view's), when known: whether a point set is a flat view
+  /// (isFlatView()) depends on it.
+  bool originKnown(Eigen::Vector3d* origin) const;
   /// Height of p above the floor [m].
   double heightAboveFloor(const Eigen::Vector3d& p) const { return up.dot(p) + floor_offset; }
   /// The lowest and highest height of `points` above the floor (+inf, -inf when empty).
@@ -226,11 +229,20 @@ constexpr double kGapBand = 0.25;
 /// thickness (sqrt(3) of their noise-free standard deviation across the plane: a uniform
 /// slab; at least `min_half_m`) and its centre moved onto the plane. Returns whether `sq`
 /// was cut (never when it is already that thin or the points are not flat).
-bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq);
+bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq,
+                    const Eigen::Vector3d* origin = nullptr);
 constexpr double kFlatRatio = 0.1;
 /// Whether points with principal frame `f` are a flat view, by thinToFlatView()'s rule with
-/// `ratio` in place of kFlatRatio.
-bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio = kFlatRatio);
+/// `ratio` in place of kFlatRatio. With the sensor's `origin`, points whose plane passes
+/// through it (the ray to their centroid within kScanPlaneDeg of the plane) are not: they
+/// are one scan line (each line of a scanning laser, each row of a depth camera, lies in a
+/// plane through the origin, and range noise moves a return along its ray, within it) or a
+/// surface seen edge-on, and show no face whose depth went unobserved. A box 5-7 m away seen
+/// by one tilt line is such a plane, and thinning its fit across it flattens the box into a
+/// horizontal sheet.
+bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio = kFlatRatio,
+                const Eigen::Vector3d* origin = nullptr);
+constexpr double kScanPlaneDeg = 2.0;
 constexpr double kThinAxisDeg = 25.0;
 
 /// How round the horizontal section of an upright `sq` is: 0 for a cornered section
