@@ -183,6 +183,19 @@ std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask
   return count;
 }
 
+std::size_t beamsBeforeBox(const Cloud& cloud, const std::vector<char>& skip,
+                           const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
+                           const Eigen::Vector3f& hi, std::size_t enough) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f p = cloud[i].getVector3fMap();
+    if (skip[i] || !p.allFinite()) continue;
+    const auto [t0, t1] = beamInBox(origin, p, lo, hi);
+    if (t0 <= t1 && t0 > 1.f && ++count >= enough) break;
+  }
+  return count;
+}
+
 std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
                                         const std::vector<int>& owner, int num_gaussians,
                                         const SegmentationParams& params, double* link_radius_m,
@@ -235,6 +248,17 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
     return beamsPastBox(cloud, novel_mask, sweep.origin, box.min(), box.max(), kSeenGapBeams) >=
            kSeenGapBeams;
   };
+  // Whether kSeenGapBeams or more returns lie in front of the gap between two pieces (their
+  // beams aimed into it), their own points aside.
+  std::vector<char> own;
+  auto hiddenGap = [&](std::size_t a, std::size_t b) {
+    own.assign(cloud.size(), 0);
+    for (int i : pieces[a]) own[static_cast<std::size_t>(i)] = 1;
+    for (int i : pieces[b]) own[static_cast<std::size_t>(i)] = 1;
+    const Eigen::AlignedBox3f box = gapBox(a, b);
+    return beamsBeforeBox(cloud, own, sweep.origin, box.min(), box.max(), kSeenGapBeams) >=
+           kSeenGapBeams;
+  };
   // Stacked pieces: whether, seen from the sweep's origin, one lies wholly above the other
   // (pieces one behind the other overlap in elevation) by at most kLineGapSteps of the
   // sweep's steps between scan lines at their bearing.
@@ -265,8 +289,11 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
   const float gap = static_cast<float>(params.merge_gap_factor * link_radius);
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
   // Stacked pieces merge first; pieces side by side then merge nearest first, unless that
-  // would join two groups, each large enough to be a segment, seen one in front of the other.
-  std::vector<std::tuple<float, int, int>> side_by_side;
+  // would join two groups, each large enough to be a segment, seen one in front of the other;
+  // those of different Gaussians across a hidden gap last (second in each entry: 1), and
+  // only groups that each stand as a segment: one object's two sides, not a fragment taken
+  // into whatever segment lies across a shadow.
+  std::vector<std::tuple<int, float, int, int>> side_by_side;
   for (std::size_t a = 0; a < np; ++a) {
     for (std::size_t b = a + 1; b < np; ++b) {
       const Eigen::Vector3f sep =
@@ -293,10 +320,17 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
                         (!two_objects || !can_look || !seenPast(a, b));
       const bool stacked =
           sep.head<2>().isZero() && sep.z() > 0.f && (same || !can_look || !seenThrough(a, b));
+      // Pieces of different Gaussians side by side whose gap the sweep did not see: the
+      // beams toward it ended in front of it (an object standing before them hid it), none
+      // passed through it. Pieces of one object on both sides of a nearer one's shadow.
+      const bool hidden = !stacked && !same && can_look && !sep.head<2>().isZero() &&
+                          sep.head<2>().norm() <= floor_gap && !seenPast(a, b) &&
+                          !seenThrough(a, b) && hiddenGap(a, b);
       if (stacked)
         sets.unite(static_cast<int>(a), static_cast<int>(b));
-      else if (same)
-        side_by_side.emplace_back(sep.norm(), static_cast<int>(a), static_cast<int>(b));
+      else if (same || hidden)
+        side_by_side.emplace_back(same ? 0 : 1, sep.norm(), static_cast<int>(a),
+                                  static_cast<int>(b));
     }
   }
   if (!side_by_side.empty()) {
@@ -343,15 +377,17 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
       if (!can_look || size[ra] < least || size[rb] < least) return false;
       if (!jumps) {  // among the pieces of the groups side-by-side merges may join
         std::vector<char> involved(np, 0);
-        for (const auto& [sep, a, b] : side_by_side) involved[find(a)] = involved[find(b)] = 1;
+        for (const auto& [across, sep, a, b] : side_by_side)
+          involved[find(a)] = involved[find(b)] = 1;
         for (std::size_t a = 0; a < np; ++a) involved[a] = involved[find(static_cast<int>(a))];
         jumps = depthJumps(cloud, pieces, sweep.origin, link_radius, floor_gap, involved);
       }
       return behind(ra, rb) + behind(rb, ra) >= kSeenGapBeams && footprintsApart(ra, rb);
     };
-    for (const auto& [sep, a, b] : side_by_side) {
+    for (const auto& [across, sep, a, b] : side_by_side) {
       const int ra = find(a), rb = find(b);
       if (ra == rb) continue;
+      if (across && (size[ra] < least || size[rb] < least)) continue;
       if (inFront(ra, rb)) continue;
       sets.unite(ra, rb);
       const int r = find(ra);

@@ -129,6 +129,13 @@ std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask
                          const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
                          const Eigen::Vector3f& hi, std::size_t enough);
 
+/// Returns of the whole cloud (ground included) not in `skip` (one flag per cloud point) whose
+/// beam from `origin`, continued, meets the box [lo, hi] beyond them: something the sweep saw
+/// in front of the box hid that part of it. Counting stops at `enough`.
+std::size_t beamsBeforeBox(const Cloud& cloud, const std::vector<char>& skip,
+                           const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
+                           const Eigen::Vector3f& hi, std::size_t enough);
+
 /// Segments of novel points (`points` ascending, `owner[k]` the most probable novel Gaussian
 /// of points[k], in [0, num_gaussians)): connected pieces (linkComponents with
 /// params.link_factor, the spacing capped by sweepSpacing over sweep.kept when given); pieces
@@ -142,13 +149,19 @@ std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask
 /// min_segment_points) were seen one in front of the other: kSeenGapBeams or more depth
 /// jumps of more than merge_floor_gap_factor link radii (depthJumps) with the farther point
 /// below the nearer group's top less a link radius, and their footprints on the floor plan
-/// more than kInFrontApartLinks link radii apart. Side-by-side merges come after the stacked ones,
-/// nearest first. Pieces of any Gaussians stacked one above the other (footprints overlapping,
-/// vertical gap within merge_gap_factor link radii) merge too: one object cut by a gap between tilt
-/// lines; but when the sweep's origin is known and kSeenGapBeams or more of its beams (not novel
-/// ones) end in or pass through the gap between them, the sweep saw that gap: two things one above
-/// the other (a person below a stray difference on the wall), not merged. With the origin known,
-/// pieces one above the other (footprints within merge_floor_gap_factor link radii) farther
+/// more than kInFrontApartLinks link radii apart. With the origin known, pieces of different
+/// Gaussians side by side (footprints within merge_floor_gap_factor link radii) whose gap the
+/// sweep did not see merge as pieces of one Gaussian do: no beam passed through or past the
+/// gap, and kSeenGapBeams or more ended in front of it (beamsBeforeBox, the pieces' own points
+/// aside): one object on both sides of the shadow of another standing before it, two faces of
+/// a crate with a person between it and the sensor (after the other side-by-side merges, and
+/// only groups of min_segment_points or more each). Side-by-side merges come after the stacked
+/// ones, nearest first. Pieces of any Gaussians stacked one above the other (footprints
+/// overlapping, vertical gap within merge_gap_factor link radii) merge too: one object cut by a gap
+/// between tilt lines; but when the sweep's origin is known and kSeenGapBeams or more of its beams
+/// (not novel ones) end in or pass through the gap between them, the sweep saw that gap: two things
+/// one above the other (a person below a stray difference on the wall), not merged. With the origin
+/// known, pieces one above the other (footprints within merge_floor_gap_factor link radii) farther
 /// apart than merge_gap_factor link radii merge too when, seen from the origin, one lies wholly
 /// above the other by at most kLineGapSteps of the sweep's steps between scan lines at that
 /// bearing (ScanLineSpacing) and the sweep did not see through the gap: at low range noise
