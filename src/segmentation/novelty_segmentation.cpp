@@ -133,69 +133,6 @@ double sweepSpacing(const Cloud& cloud, const NearestNeighbourIndex& sweep, cons
   return spacing.empty() ? std::numeric_limits<double>::infinity() : median(spacing);
 }
 
-namespace {
-
-/// Where the beam origin + t (p - origin), t >= 0, is in the box [lo, hi]: [t0, t1], empty
-/// (t0 > t1) when it misses the box.
-std::pair<float, float> beamInBox(const Eigen::Vector3f& origin, const Eigen::Vector3f& p,
-                                  const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
-  const Eigen::Vector3f d = p - origin;
-  float t0 = 0.f, t1 = std::numeric_limits<float>::infinity();
-  for (int k = 0; k < 3 && t0 <= t1; ++k) {
-    if (std::abs(d[k]) < 1e-9f) {
-      if (origin[k] < lo[k] || origin[k] > hi[k]) return {1.f, 0.f};  // parallel, outside
-      continue;
-    }
-    float a = (lo[k] - origin[k]) / d[k], b = (hi[k] - origin[k]) / d[k];
-    if (a > b) std::swap(a, b);
-    t0 = std::max(t0, a);
-    t1 = std::min(t1, b);
-  }
-  return {t0, t1};
-}
-
-}  // namespace
-
-std::size_t beamsThroughBox(const Cloud& cloud, const Indices& kept,
-                            const std::vector<char>& novel_mask, const Eigen::Vector3f& origin,
-                            const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
-                            std::size_t enough) {
-  std::size_t count = 0;
-  for (int i : kept) {
-    if (novel_mask[i]) continue;
-    // The segment origin -> p, t in [0, 1], against the box.
-    const auto [t0, t1] = beamInBox(origin, cloud[i].getVector3fMap(), lo, hi);
-    if (t0 <= std::min(t1, 1.f) && ++count >= enough) break;
-  }
-  return count;
-}
-
-std::size_t beamsPastBox(const Cloud& cloud, const std::vector<char>& novel_mask,
-                         const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
-                         const Eigen::Vector3f& hi, std::size_t enough) {
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3f p = cloud[i].getVector3fMap();
-    if (novel_mask[i] || !p.allFinite()) continue;
-    const auto [t0, t1] = beamInBox(origin, p, lo, hi);
-    if (t0 <= t1 && t1 < 1.f && ++count >= enough) break;
-  }
-  return count;
-}
-
-std::size_t beamsBeforeBox(const Cloud& cloud, const std::vector<char>& skip,
-                           const Eigen::Vector3f& origin, const Eigen::Vector3f& lo,
-                           const Eigen::Vector3f& hi, std::size_t enough) {
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3f p = cloud[i].getVector3fMap();
-    if (skip[i] || !p.allFinite()) continue;
-    const auto [t0, t1] = beamInBox(origin, p, lo, hi);
-    if (t0 <= t1 && t0 > 1.f && ++count >= enough) break;
-  }
-  return count;
-}
-
 std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& points,
                                         const std::vector<int>& owner, int num_gaussians,
                                         const SegmentationParams& params, double* link_radius_m,
