@@ -186,15 +186,21 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
            kSeenGapBeams;
   };
   // Whether kSeenGapBeams or more returns lie in front of the gap between two pieces (their
-  // beams aimed into it), their own points aside.
+  // beams aimed into it), their own points aside (flagged in `own` for the count, then
+  // cleared: one mask for every pair asked).
   std::vector<char> own;
   auto hiddenGap = [&](std::size_t a, std::size_t b) {
-    own.assign(cloud.size(), 0);
-    for (int i : pieces[a]) own[static_cast<std::size_t>(i)] = 1;
-    for (int i : pieces[b]) own[static_cast<std::size_t>(i)] = 1;
+    if (own.empty()) own.assign(cloud.size(), 0);
+    const auto flag = [&](char value) {
+      for (const std::size_t c : {a, b})
+        for (int i : pieces[c]) own[static_cast<std::size_t>(i)] = value;
+    };
+    flag(1);
     const Eigen::AlignedBox3f box = gapBox(a, b);
-    return beamsBeforeBox(cloud, own, sweep.origin, box.min(), box.max(), kSeenGapBeams) >=
-           kSeenGapBeams;
+    const bool hidden = beamsBeforeBox(cloud, own, sweep.origin, box.min(), box.max(),
+                                       kSeenGapBeams) >= kSeenGapBeams;
+    flag(0);
+    return hidden;
   };
   // Stacked pieces: whether, seen from the sweep's origin, one lies wholly above the other
   // (pieces one behind the other overlap in elevation) by at most kLineGapSteps of the
@@ -227,7 +233,7 @@ std::vector<Indices> segmentNovelPoints(const Cloud& cloud, const Indices& point
   const float floor_gap = static_cast<float>(params.merge_floor_gap_factor * link_radius);
   // Stacked pieces merge first; pieces side by side then merge nearest first, unless that
   // would join two groups, each large enough to be a segment, seen one in front of the other;
-  // those of different Gaussians across a hidden gap last (second in each entry: 1), and
+  // those of different Gaussians across a hidden gap last (first in each entry: 1), and
   // only groups that each stand as a segment: one object's two sides, not a fragment taken
   // into whatever segment lies across a shadow.
   std::vector<std::tuple<int, float, int, int>> side_by_side;

@@ -182,10 +182,7 @@ Points3d mirroredHiddenSide(const Points3d& points, const FitBounds& bounds, dou
   centre += 0.5 * (median(left_depth) + median(right_depth)) * v;
   // A round section's centre from its curvature, where it lies plausibly behind the middle
   // (a flat view has no curvature to go by: a leaf maps onto itself).
-  Eigen::Vector3d origin;
-  const bool origin_known = bounds.originKnown(&origin);
-  round_section = round_section && !isFlatView(principalFrame(points), bounds.noise_m, kFlatRatio,
-                                               origin_known ? &origin : nullptr);
+  round_section = round_section && !bounds.isFlat(points, kFlatRatio);
   Eigen::Vector3d circles;
   const double width = u_hi - u_lo;
   if (round_section && sectionCirclesCentre(points, bounds.up, centre, &circles) &&
@@ -303,10 +300,14 @@ bool isFlatView(const PrincipalFrame& f, double noise_m, double ratio,
          std::abs(f.axes.col(0).dot(ray)) > range * std::sin(kScanPlaneDeg * M_PI / 180.0);
 }
 
-bool FitBounds::originKnown(Eigen::Vector3d* origin) const {
-  if (!view || view->empty()) return false;
-  *origin = view->origin().cast<double>();
-  return true;
+std::optional<Eigen::Vector3d> FitBounds::sensorOrigin() const {
+  if (!view || view->empty()) return std::nullopt;
+  return view->origin().cast<double>();
+}
+
+bool FitBounds::isFlat(const Points3d& points, double ratio) const {
+  const std::optional<Eigen::Vector3d> origin = sensorOrigin();
+  return isFlatView(principalFrame(points), noise_m, ratio, origin ? &*origin : nullptr);
 }
 
 bool thinToFlatView(const Points3d& points, double noise_m, double min_half_m, Superquadric* sq,

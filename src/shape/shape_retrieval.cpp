@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "common/parallel.h"
@@ -51,12 +52,10 @@ FitResult withTurnedSection(const SuperquadricFitter& fitter, const Points3d& po
 std::vector<SuperquadricPart> standingComposite(const Points3d& points, const FitBounds* bounds,
                                                 const SuperquadricFitter& fitter, int max_parts,
                                                 int threads) {
-  if (!bounds || !bounds->has_floor || !bounds->standsOnFloor(points)) return {};
-  Eigen::Vector3d origin;
-  const bool origin_known = bounds->originKnown(&origin);
-  if (isFlatView(principalFrame(points), bounds->noise_m, kCompositeDepth,
-                 origin_known ? &origin : nullptr))
+  if (!bounds || !bounds->has_floor || !bounds->standsOnFloor(points) ||
+      bounds->isFlat(points, kCompositeDepth)) {
     return {};
+  }
   const std::vector<Indices> groups =
       standingParts(points, bounds->up, bounds->floor_offset, kMinStandingPartPoints);
   if (groups.size() < 2 || static_cast<int>(groups.size()) > max_parts) return {};
@@ -201,10 +200,8 @@ std::vector<Superquadric> ShapeRetrieval::recover(const Points3d& fine, const Po
         with_gaps.insert(with_gaps.end(), middles.begin(), middles.end());
       fit = bounded.refine(with_gaps, fit.sq, -1, true, FitMeasures::kNone);
     }
-    Eigen::Vector3d origin;
-    const bool origin_known = bounds->originKnown(&origin);
-    thinToFlatView(sub, bounds->noise_m, params_.min_size_m, &fit.sq,
-                   origin_known ? &origin : nullptr);
+    const std::optional<Eigen::Vector3d> origin = bounds->sensorOrigin();
+    thinToFlatView(sub, bounds->noise_m, params_.min_size_m, &fit.sq, origin ? &*origin : nullptr);
     return fit;
   };
 

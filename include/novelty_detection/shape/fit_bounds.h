@@ -43,6 +43,7 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "novelty_detection/params.h"
@@ -90,7 +91,9 @@ struct FitBounds {
   bool empty() const { return outside.empty() && !has_floor; }
   /// The sweep's origin (the view's), when known: whether a point set is a flat view
   /// (isFlatView()) depends on it.
-  bool originKnown(Eigen::Vector3d* origin) const;
+  std::optional<Eigen::Vector3d> sensorOrigin() const;
+  /// Whether `points` are a flat view (isFlatView() with the sweep's noise and origin).
+  bool isFlat(const Points3d& points, double ratio) const;
   /// Height of p above the floor [m].
   double heightAboveFloor(const Eigen::Vector3d& p) const { return up.dot(p) + floor_offset; }
   /// The lowest and highest height of `points` above the floor (+inf, -inf when empty).
