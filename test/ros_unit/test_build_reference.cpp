@@ -186,19 +186,26 @@ std::string assembleOnceListening(const std::string& play, const fs::path& out,
 
 /// rosbag play of the scan lines and tf of `bag` with its clock, `args` added, as player
 /// `name`. The player starts paused and is let go (a space on its standard input) once the
-/// assembler's own connections to it for /scan and /tf are up (`rosnode info`): the bag's first
-/// tf message, sent before the assembler has connected, is lost to it, and with it the first
-/// line, whose transform tf then can only extrapolate. Waiting for any subscriber is not
-/// enough: the saver listens to /tf too.
+/// connections between it and the assembler for /scan and /tf are up on both ends (`rosnode
+/// info`): the bag's first tf message, sent before the assembler has connected, is lost to it,
+/// and with it the first line, whose transform tf then can only extrapolate. Waiting for any
+/// subscriber is not enough (the saver listens to /tf too), and neither is the assembler's end
+/// alone: it lists the link once it has sent its header, before the player has read it and
+/// added the assembler to the topic's subscribers, and a line published in between is lost.
 std::string playBag(const fs::path& bag, const std::string& args, const std::string& name) {
   const std::string fifo = "\"$TMPDIR_PLAY/" + name + "\"";
-  const std::string connected =
-      "c=$(rosnode info /tilt_scan_assembler 2>/dev/null | sed -n '/^Connections/,$p'); "
-      "echo \"$c\" | grep -A1 '^ \\* topic: /scan$' | grep -q '/" +
-      name +
-      " ' && "
-      "echo \"$c\" | grep -A1 '^ \\* topic: /tf$' | grep -q '/" +
-      name + " '";
+  // `peer` among the connections of `node` for `topic` (one " * topic:" entry a link, its
+  // peer on the next line: "* to: /peer" outbound, "* to: /peer (uri)" inbound).
+  const auto linked = [](const std::string& node, const std::string& topic,
+                         const std::string& peer) {
+    return "rosnode info " + node +
+           " 2>/dev/null | sed -n '/^Connections/,$p' | grep -A1 '^ \\* topic: " + topic +
+           "$' | grep -qE '" + peer + "( |$)' ";
+  };
+  const std::string connected = linked("/tilt_scan_assembler", "/scan", "/" + name) + "&& " +
+                                linked("/tilt_scan_assembler", "/tf", "/" + name) + "&& " +
+                                linked("/" + name, "/scan", "/tilt_scan_assembler") + "&& " +
+                                linked("/" + name, "/tf", "/tilt_scan_assembler");
   return "TMPDIR_PLAY=$(mktemp -d); mkfifo " + fifo + "; timeout 120 rosbag play --clock -q " +
          "--pause " + args + " " + bag.string() + " --topics /scan /tf __name:=" + name + " < " +
          fifo + " & player=$!; exec 3>" + fifo + "; for i in $(seq 1 240); do if " + connected +
