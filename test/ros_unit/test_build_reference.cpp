@@ -194,18 +194,23 @@ std::string assembleOnceListening(const std::string& play, const fs::path& out,
 /// added the assembler to the topic's subscribers, and a line published in between is lost.
 std::string playBag(const fs::path& bag, const std::string& args, const std::string& name) {
   const std::string fifo = "\"$TMPDIR_PLAY/" + name + "\"";
-  // `peer` among the connections of `node` for `topic` (one " * topic:" entry a link, its
-  // peer on the next line: "* to: /peer" outbound, "* to: /peer (uri)" inbound).
-  const auto linked = [](const std::string& node, const std::string& topic,
+  // Each node's connections once per poll (`rosnode info` starts a Python process), then
+  // `peer` among those for `topic` (one " * topic:" entry a link, its peer on the next line:
+  // "* to: /peer" outbound, "* to: /peer (uri)" inbound).
+  const auto linked = [](const std::string& connections, const std::string& topic,
                          const std::string& peer) {
-    return "rosnode info " + node +
-           " 2>/dev/null | sed -n '/^Connections/,$p' | grep -A1 '^ \\* topic: " + topic +
-           "$' | grep -qE '" + peer + "( |$)' ";
+    return "echo \"$" + connections + "\" | grep -A1 '^ \\* topic: " + topic + "$' | grep -qE '" +
+           peer + "( |$)' ";
   };
-  const std::string connected = linked("/tilt_scan_assembler", "/scan", "/" + name) + "&& " +
-                                linked("/tilt_scan_assembler", "/tf", "/" + name) + "&& " +
-                                linked("/" + name, "/scan", "/tilt_scan_assembler") + "&& " +
-                                linked("/" + name, "/tf", "/tilt_scan_assembler");
+  const std::string connected =
+      "assembler_links=$(rosnode info /tilt_scan_assembler 2>/dev/null | sed -n "
+      "'/^Connections/,$p'); "
+      "player_links=$(rosnode info /" +
+      name + " 2>/dev/null | sed -n '/^Connections/,$p'); " +
+      linked("assembler_links", "/scan", "/" + name) + "&& " +
+      linked("assembler_links", "/tf", "/" + name) + "&& " +
+      linked("player_links", "/scan", "/tilt_scan_assembler") + "&& " +
+      linked("player_links", "/tf", "/tilt_scan_assembler");
   return "TMPDIR_PLAY=$(mktemp -d); mkfifo " + fifo + "; timeout 120 rosbag play --clock -q " +
          "--pause " + args + " " + bag.string() + " --topics /scan /tf __name:=" + name + " < " +
          fifo + " & player=$!; exec 3>" + fifo + "; for i in $(seq 1 240); do if " + connected +
