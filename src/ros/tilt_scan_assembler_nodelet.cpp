@@ -80,9 +80,11 @@ void TiltScanAssemblerNodelet::onInit() {
         // Fewer than ~min_lines lines are kept through a pause (a stalled process or player
         // whose next lines are still to come would otherwise lose the head of a sweep); the
         // stamps close them if the lines resume much later.
-        if (lines_ >= min_lines_ &&
-            (ros::WallTime::now() - last_line_wall_).toSec() > idle_timeout_) {
-          publishSweep();
+        const double idle = (ros::WallTime::now() - last_line_wall_).toSec();
+        if (lines_ >= min_lines_ && idle > idle_timeout_) {
+          NODELET_INFO("sweep closed after %.1f s without a line: %d lines, %zu points", idle,
+                       lines_, sweep_.size());
+          publishSweep("the idle timeout");
           have_pitch_ = false;
           direction_ = 0;
           typical_step_ = 0.0;
@@ -93,13 +95,20 @@ void TiltScanAssemblerNodelet::onInit() {
                sweep_pub_.getTopic().c_str(), fixed_frame_.c_str());
 }
 
-void TiltScanAssemblerNodelet::publishSweep() {
+void TiltScanAssemblerNodelet::publishSweep(const char* closed_by) {
   if (lines_ >= min_lines_ && !sweep_.empty()) {
     std_msgs::Header header;
     header.frame_id = fixed_frame_;
     header.stamp = last_stamp_;
     sweep_pub_.publish(toPointCloud2(sweep_, header));
-    NODELET_DEBUG("sweep of %d lines, %zu points", lines_, sweep_.size());
+    NODELET_DEBUG("sweep of %d lines, %zu points, closed by %s", lines_, sweep_.size(), closed_by);
+  } else if (lines_ > 0) {
+    // Lines are never lost without a word: a sweep this short is a laser started or stopped
+    // mid-sweep, or lines out of order.
+    NODELET_WARN_THROTTLE(kWarnPeriodS,
+                          "%d line(s) (%zu points) not published: closed by %s with fewer "
+                          "than ~min_lines (%d) lines",
+                          lines_, sweep_.size(), closed_by, min_lines_);
   }
   sweep_.clear();
   lines_ = 0;
@@ -119,20 +128,22 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
     // Close the sweep when the tilt reverses or it has lasted too long; time going
     // backwards (a bag restarting) also starts a new sweep.
     const double pitch = pitchOf(T_parent_laser.linear());
-    bool close =
-        lines_ > 0 && (stamp < last_stamp_ || (stamp - sweep_start_).toSec() > max_sweep_duration_);
+    const char* closed_by = nullptr;
+    if (lines_ > 0 && stamp < last_stamp_) closed_by = "a stamp going back";
+    if (lines_ > 0 && (stamp - sweep_start_).toSec() > max_sweep_duration_)
+      closed_by = "~max_sweep_duration";
     if (have_pitch_) {
       const double step = pitch - last_pitch_;
       if (std::abs(step) > min_tilt_step_rad_) {
         const int dir = step > 0 ? 1 : -1;
         if (steps_ >= 2 && std::abs(step) > kFlyBackFactor * typical_step_) {
           // A fly-back: this line starts the next sweep, whose direction is not known yet.
-          close = true;
+          closed_by = "a fly-back";
           direction_ = 0;
           typical_step_ = 0.0;
           steps_ = 0;
         } else {
-          if (direction_ != 0 && dir != direction_) close = true;
+          if (direction_ != 0 && dir != direction_) closed_by = "a tilt reversal";
           direction_ = dir;
           typical_step_ = (typical_step_ * steps_ + std::abs(step)) / (steps_ + 1);
           ++steps_;
@@ -141,11 +152,11 @@ void TiltScanAssemblerNodelet::onScan(const sensor_msgs::LaserScan::ConstPtr& sc
     }
     last_pitch_ = pitch;
     have_pitch_ = true;
-    if (close && direction_ != 0) {  // a reversal: the running step mean starts again
+    if (closed_by && direction_ != 0) {  // a reversal: the running step mean starts again
       typical_step_ = 0.0;
       steps_ = 0;
     }
-    if (close) publishSweep();
+    if (closed_by) publishSweep(closed_by);
     if (lines_ == 0) sweep_start_ = stamp;
 
     for (std::size_t i = 0; i < scan->ranges.size(); ++i) {

@@ -1,14 +1,17 @@
 // A laser at (0, 0, 1) in map nods from -0.3 to +0.3 rad pitch in 21 lines and back in 20:
 // the assembler publishes one sweep per direction (closed by the reversal, then by the idle
-// timeout), every valid beam projected at its range from the laser origin.
+// timeout), every valid beam projected at its range from the laser origin. A sweep too short
+// to publish is reported.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2/LinearMath/Quaternion.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "novelty_detection/ros/conversions.h"
@@ -16,26 +19,12 @@
 
 using test_helpers::waitFor;
 
-TEST(TiltAssembler, OneSweepPerTiltDirection) {
-  ros::NodeHandle nh;
-  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
-  std::vector<novelty_detection::Cloud> sweeps;
-  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
-      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
-        EXPECT_EQ(m->header.frame_id, "map");
-        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
-      });
-  ASSERT_TRUE(waitFor(
-      [&] {
-        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
-               sub.getNumPublishers() > 0;
-      },
-      30.0));
+namespace {
 
-  std::vector<double> pitches;
-  for (int k = 0; k <= 20; ++k) pitches.push_back(-0.3 + 0.03 * k);
-  for (int k = 19; k >= 0; --k) pitches.push_back(-0.3 + 0.03 * k);
+/// One line of 11 beams (one without a return, one beyond range_max: 9 points) per pitch,
+/// 25 ms apart, each with the laser's pose at (0, 0, 1) in map on /tf.
+void publishLines(ros::Publisher& tf_pub, ros::Publisher& scan_pub,
+                  const std::vector<double>& pitches) {
   const ros::Time t0 = ros::Time::now();
   for (std::size_t k = 0; k < pitches.size(); ++k) {
     const ros::Time stamp = t0 + ros::Duration(0.025 * k);
@@ -67,6 +56,31 @@ TEST(TiltAssembler, OneSweepPerTiltDirection) {
     scan_pub.publish(scan);
     ros::WallDuration(0.01).sleep();
   }
+}
+
+}  // namespace
+
+TEST(TiltAssembler, OneSweepPerTiltDirection) {
+  ros::NodeHandle nh;
+  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
+  std::vector<novelty_detection::Cloud> sweeps;
+  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        EXPECT_EQ(m->header.frame_id, "map");
+        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
+      });
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
+               sub.getNumPublishers() > 0;
+      },
+      30.0));
+
+  std::vector<double> pitches;
+  for (int k = 0; k <= 20; ++k) pitches.push_back(-0.3 + 0.03 * k);
+  for (int k = 19; k >= 0; --k) pitches.push_back(-0.3 + 0.03 * k);
+  publishLines(tf_pub, scan_pub, pitches);
   ASSERT_TRUE(waitFor([&] { return sweeps.size() >= 2; }, 20.0)) << sweeps.size() << " sweeps";
   EXPECT_EQ(sweeps[0].size(), 21u * 9u);
   EXPECT_EQ(sweeps[1].size(), 20u * 9u);
@@ -83,6 +97,48 @@ TEST(TiltAssembler, OneSweepPerTiltDirection) {
   // Pitch +-0.3 rad about y tilts the beams to z = 1 -+ 2 cos(a) sin(0.3).
   EXPECT_NEAR(max_z, 1 + 2 * std::sin(0.3), 1e-3);
   EXPECT_NEAR(min_z, 1 - 2 * std::sin(0.3), 1e-3);
+}
+
+TEST(TiltAssembler, ASweepTooShortToPublishIsReported) {
+  // Three lines tilting up, then twenty tilting down: the reversal closes a sweep of three
+  // lines, fewer than ~min_lines (5). It is not published, and a warning says so; the twenty
+  // lines are one sweep.
+  ros::NodeHandle nh;
+  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
+  std::vector<novelty_detection::Cloud> sweeps;
+  std::vector<std::string> warnings;
+  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
+      });
+  // The log of every node: the manager's, the loader's and this one's (no rosout node here).
+  ros::Subscriber log =
+      nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+        if (m->level >= rosgraph_msgs::Log::WARN) warnings.push_back(m->msg);
+      });
+  ASSERT_TRUE(waitFor(
+      [&] {
+        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
+               sub.getNumPublishers() > 0 && log.getNumPublishers() >= 3;
+      },
+      30.0));
+
+  std::vector<double> pitches = {-0.3, -0.27, -0.24};
+  for (int k = 1; k <= 20; ++k) pitches.push_back(-0.24 - 0.03 * k);
+  publishLines(tf_pub, scan_pub, pitches);
+  const std::string expected =
+      "3 line(s) (27 points) not published: closed by a tilt reversal with fewer than "
+      "~min_lines (5) lines";
+  const auto warned = [&] {
+    for (const std::string& w : warnings)
+      if (w.find(expected) != std::string::npos) return true;
+    return false;
+  };
+  ASSERT_TRUE(waitFor([&] { return !sweeps.empty() && warned(); }, 20.0))
+      << sweeps.size() << " sweeps, " << warnings.size() << " warnings";
+  ASSERT_EQ(sweeps.size(), 1u);
+  EXPECT_EQ(sweeps[0].size(), 20u * 9u);
 }
 
 int main(int argc, char** argv) {

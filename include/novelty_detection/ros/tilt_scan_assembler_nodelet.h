@@ -34,7 +34,8 @@ class TiltScanAssemblerNodelet : public nodelet::Nodelet {
  private:
   void onInit() override;
   void onScan(const sensor_msgs::LaserScan::ConstPtr& scan);
-  void publishSweep();
+  /// Publishes the sweep (or says why its lines are not) and starts the next.
+  void publishSweep(const char* closed_by);
 
   std::string fixed_frame_ = "map";
   std::string tilt_parent_frame_;     // "" = the fixed frame
