@@ -18,6 +18,8 @@ fi
 run_rc=$?
 set -e
 grep -E "^\[ *(OK|FAILED|PASSED) *\]|^\[ RUN|FAILURE|ERROR:" "$WS/test.log" | grep -v "^\[ RUN" || true
+# The head of each failed check's message (the whole of it stays in the log).
+awk '/: Failure$/ { n = 16 } n > 0 { print substr($0, 1, 300); n-- }' "$WS/test.log" | head -200
 if [ $run_rc -ne 0 ]; then
   tail -80 "$WS/test.log" >&2
   log "catkin_make run_tests failed (log: $WS/test.log)"
