@@ -203,13 +203,12 @@ std::string playBag(const fs::path& bag, const std::string& args, const std::str
     return "echo \"$" + connections + "\" | grep -A1 '^ \\* topic: " + topic + "$' | grep -qE '" +
            peer + "( |$)' ";
   };
+  const auto read = [](const std::string& connections, const std::string& node) {
+    return connections + "=$(rosnode info " + node + " 2>/dev/null | sed -n '/^Connections/,$p'); ";
+  };
   const std::string connected =
-      "assembler_links=$(rosnode info /tilt_scan_assembler 2>/dev/null | sed -n "
-      "'/^Connections/,$p'); "
-      "saver_links=$(rosnode info /build_reference 2>/dev/null | sed -n '/^Connections/,$p'); "
-      "player_links=$(rosnode info /" +
-      name + " 2>/dev/null | sed -n '/^Connections/,$p'); " +
-      linked("assembler_links", "/scan", "/" + name) + "&& " +
+      read("assembler_links", "/tilt_scan_assembler") + read("saver_links", "/build_reference") +
+      read("player_links", "/" + name) + linked("assembler_links", "/scan", "/" + name) + "&& " +
       linked("assembler_links", "/tf", "/" + name) + "&& " +
       linked("saver_links", "/tf", "/" + name) + "&& " +
       linked("player_links", "/scan", "/tilt_scan_assembler") + "&& " +
@@ -228,10 +227,12 @@ std::string whatHappened(const std::string& out) {
   std::istringstream in(out);
   std::string summary;
   for (std::string line; std::getline(in, line);) {
-    if (line.find("WARN") != std::string::npos || line.find("ERROR") != std::string::npos ||
-        line.find("FATAL") != std::string::npos || line.find("sweep") != std::string::npos ||
-        line.find("master") != std::string::npos || line.find("listening") != std::string::npos)
-      summary += line + "\n";
+    for (const char* word : {"WARN", "ERROR", "FATAL", "sweep", "master", "listening"}) {
+      if (line.find(word) != std::string::npos) {
+        summary += line + "\n";
+        break;
+      }
+    }
   }
   return summary + "---- the whole output:\n" + out;
 }
