@@ -58,34 +58,46 @@ void publishLines(ros::Publisher& tf_pub, ros::Publisher& scan_pub,
   }
 }
 
+/// The lines' and tf's publishers and the sweeps received (with their frames).
+class TiltAssembler : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    tf_pub_ = nh_.advertise<tf2_msgs::TFMessage>("/tf", 100);
+    scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("/scan", 100);
+    sub_ = nh_.subscribe<sensor_msgs::PointCloud2>(
+        "/assembler/sweep", 10, [this](const sensor_msgs::PointCloud2::ConstPtr& m) {
+          frames_.push_back(m->header.frame_id);
+          sweeps_.push_back(novelty_detection::fromPointCloud2(*m));
+        });
+  }
+  /// Whether the assembler is linked to the lines, tf and the sweeps.
+  bool connected() const {
+    return tf_pub_.getNumSubscribers() > 0 && scan_pub_.getNumSubscribers() > 0 &&
+           sub_.getNumPublishers() > 0;
+  }
+
+  ros::NodeHandle nh_;
+  ros::Publisher tf_pub_, scan_pub_;
+  ros::Subscriber sub_;
+  std::vector<novelty_detection::Cloud> sweeps_;
+  std::vector<std::string> frames_;
+};
+
 }  // namespace
 
-TEST(TiltAssembler, OneSweepPerTiltDirection) {
-  ros::NodeHandle nh;
-  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
-  std::vector<novelty_detection::Cloud> sweeps;
-  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
-      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
-        EXPECT_EQ(m->header.frame_id, "map");
-        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
-      });
-  ASSERT_TRUE(waitFor(
-      [&] {
-        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
-               sub.getNumPublishers() > 0;
-      },
-      30.0));
+TEST_F(TiltAssembler, OneSweepPerTiltDirection) {
+  ASSERT_TRUE(waitFor([&] { return connected(); }, 30.0));
 
   std::vector<double> pitches;
   for (int k = 0; k <= 20; ++k) pitches.push_back(-0.3 + 0.03 * k);
   for (int k = 19; k >= 0; --k) pitches.push_back(-0.3 + 0.03 * k);
-  publishLines(tf_pub, scan_pub, pitches);
-  ASSERT_TRUE(waitFor([&] { return sweeps.size() >= 2; }, 20.0)) << sweeps.size() << " sweeps";
-  EXPECT_EQ(sweeps[0].size(), 21u * 9u);
-  EXPECT_EQ(sweeps[1].size(), 20u * 9u);
+  publishLines(tf_pub_, scan_pub_, pitches);
+  ASSERT_TRUE(waitFor([&] { return sweeps_.size() >= 2; }, 20.0)) << sweeps_.size() << " sweeps";
+  for (const std::string& frame : frames_) EXPECT_EQ(frame, "map");
+  EXPECT_EQ(sweeps_[0].size(), 21u * 9u);
+  EXPECT_EQ(sweeps_[1].size(), 20u * 9u);
   double max_err = 0.0, min_z = 1e9, max_z = -1e9;
-  for (const auto& s : sweeps) {
+  for (const auto& s : sweeps_) {
     for (const auto& p : s) {
       max_err = std::max(max_err,
                          std::abs(std::sqrt(p.x * p.x + p.y * p.y + (p.z - 1) * (p.z - 1)) - 2.0));
@@ -99,34 +111,21 @@ TEST(TiltAssembler, OneSweepPerTiltDirection) {
   EXPECT_NEAR(min_z, 1 - 2 * std::sin(0.3), 1e-3);
 }
 
-TEST(TiltAssembler, ASweepTooShortToPublishIsReported) {
+TEST_F(TiltAssembler, ASweepTooShortToPublishIsReported) {
   // Three lines tilting up, then twenty tilting down: the reversal closes a sweep of three
   // lines, fewer than ~min_lines (5). It is not published, and a warning says so; the twenty
   // lines are one sweep.
-  ros::NodeHandle nh;
-  ros::Publisher tf_pub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
-  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("/scan", 100);
-  std::vector<novelty_detection::Cloud> sweeps;
   std::vector<std::string> warnings;
-  ros::Subscriber sub = nh.subscribe<sensor_msgs::PointCloud2>(
-      "/assembler/sweep", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
-        sweeps.push_back(novelty_detection::fromPointCloud2(*m));
-      });
   // The log of every node: the manager's, the loader's and this one's (no rosout node here).
   ros::Subscriber log =
-      nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+      nh_.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::Log::ConstPtr& m) {
         if (m->level >= rosgraph_msgs::Log::WARN) warnings.push_back(m->msg);
       });
-  ASSERT_TRUE(waitFor(
-      [&] {
-        return tf_pub.getNumSubscribers() > 0 && scan_pub.getNumSubscribers() > 0 &&
-               sub.getNumPublishers() > 0 && log.getNumPublishers() >= 3;
-      },
-      30.0));
+  ASSERT_TRUE(waitFor([&] { return connected() && log.getNumPublishers() >= 3; }, 30.0));
 
   std::vector<double> pitches = {-0.3, -0.27, -0.24};
   for (int k = 1; k <= 20; ++k) pitches.push_back(-0.24 - 0.03 * k);
-  publishLines(tf_pub, scan_pub, pitches);
+  publishLines(tf_pub_, scan_pub_, pitches);
   const std::string expected =
       "3 line(s) (27 points) not published: closed by a tilt reversal with fewer than "
       "~min_lines (5) lines";
@@ -135,10 +134,10 @@ TEST(TiltAssembler, ASweepTooShortToPublishIsReported) {
       if (w.find(expected) != std::string::npos) return true;
     return false;
   };
-  ASSERT_TRUE(waitFor([&] { return !sweeps.empty() && warned(); }, 20.0))
-      << sweeps.size() << " sweeps, " << warnings.size() << " warnings";
-  ASSERT_EQ(sweeps.size(), 1u);
-  EXPECT_EQ(sweeps[0].size(), 20u * 9u);
+  ASSERT_TRUE(waitFor([&] { return !sweeps_.empty() && warned(); }, 20.0))
+      << sweeps_.size() << " sweeps, " << warnings.size() << " warnings";
+  ASSERT_EQ(sweeps_.size(), 1u);
+  EXPECT_EQ(sweeps_[0].size(), 20u * 9u);
 }
 
 int main(int argc, char** argv) {
